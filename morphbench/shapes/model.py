@@ -1,0 +1,62 @@
+"""What an assembly is, as plain data: bodies at rest positions and the links between them.
+
+No simulator here: the physics package builds a world from a ``Shape``; transforms and checks work on it directly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from morphbench.params import ActuatorParams
+
+
+@dataclass(frozen=True, kw_only=True)
+class Body:
+    """One rigid body of the assembly: an active unit or a passive dummy."""
+
+    position: tuple[float, float, float]
+    """m, centre of the body at rest, in the assembly frame (x forward, z up, the ground at z = 0)."""
+    size: tuple[float, float, float]
+    """m, box extents along x (forward), y, z."""
+    mass: float
+    """kg."""
+    friction: float
+    """Coulomb coefficient against the ground."""
+    dummy: bool
+    """True for a passive body: no actuator, no pump, no learner."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Link:
+    """A bellows between two neighbouring bodies, pushing ``front`` away from ``rear`` along +x of the assembly."""
+
+    front: int
+    """index into ``Shape.bodies`` of the body the bellows pushes forward."""
+    rear: int
+    """index into ``Shape.bodies`` of the body the bellows pushes backward."""
+    unit: int
+    """index into ``Shape.bodies`` of the active unit whose pump drives this bellows."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Shape:
+    """A whole assembly, validated: what a morphology file describes."""
+
+    name: str
+    """short name, by default the file's stem."""
+    source: str
+    """where it was loaded from (a path), for messages."""
+    bodies: tuple[Body, ...]
+    links: tuple[Link, ...]
+    actuator: ActuatorParams
+    description: str = ""
+
+    @property
+    def units(self) -> tuple[int, ...]:
+        """Body indices of the active units, in unit order (unit 1 first): the units that run a learner."""
+        return tuple(i for i, body in enumerate(self.bodies) if not body.dummy)
+
+    @property
+    def n_units(self) -> int:
+        """Number of active units."""
+        return len(self.units)
