@@ -1,0 +1,71 @@
+"""The learner interface: one unit's learner, which sees only that unit's own measurements.
+
+A run builds one learner per active unit, each with its own random stream, and then alternates, per learning
+step, ``propose()`` (the phase the unit actuates with during the step) and ``update(velocity)`` (the unit's own
+measured velocity at that phase, in mm/cycle). A learner is never given another unit's phase, measurement or stream.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from morphbench.errors import ConfigError
+from morphbench.params import INITIAL_MEMORY_CHOICES, LearnerParams
+
+
+def wrap_phase(phase: float) -> float:
+    """``phase`` modulo 1, always in [0, 1)."""
+    wrapped = phase % 1.0
+    # a tiny negative phase rounds up to exactly 1.0 under float modulo (-1e-18 % 1.0 == 1.0)
+    return 0.0 if wrapped >= 1.0 else wrapped
+
+
+def initial_memory(params: LearnerParams) -> float | None:
+    """U_mem before the first trial: None while it is still to be measured ('measure'), else -inf or 0.0."""
+    return {"measure": None, "-inf": -math.inf, "zero": 0.0}[params.initial_memory]
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def check_learner_params(params: LearnerParams) -> None:
+    """Raise ConfigError on parameters no learner can run with."""
+    if params.initial_memory not in INITIAL_MEMORY_CHOICES:
+        raise ConfigError("LearnerParams", "initial_memory", f"one of {INITIAL_MEMORY_CHOICES}", params.initial_memory)
+    # step_size may be 0 (the phase never moves) and temperature may be 0 (greedy) or inf (accepts everything)
+    if not (_is_number(params.step_size) and math.isfinite(params.step_size) and params.step_size >= 0):
+        raise ConfigError("LearnerParams", "step_size", "a finite number >= 0 (fraction of a cycle)", params.step_size)
+    if not (_is_number(params.temperature) and params.temperature >= 0):  # also rejects NaN
+        raise ConfigError("LearnerParams", "temperature", "a number >= 0 (mm/cycle)", params.temperature)
+
+
+class Learner(ABC):
+    """One unit's learner; sees only its own unit's measurements.
+
+    Protocol: ``propose()`` and ``update(velocity)`` strictly alternate, starting with ``propose()``.
+    """
+
+    phase: float
+    """The kept phase, in [0, 1)."""
+    memory: float | None
+    """U_mem, mm/cycle: None before the first measurement when ``initial_memory == 'measure'``."""
+
+    def __init__(self, params: LearnerParams, rng: np.random.Generator):
+        check_learner_params(params)
+        self.params = params
+        self.rng = rng
+        self.phase = wrap_phase(float(rng.uniform(0.0, 1.0)))
+        self.memory = initial_memory(params)
+
+    @abstractmethod
+    def propose(self) -> float:
+        """The phase to run during the next learning step, in [0, 1)."""
+
+    @abstractmethod
+    def update(self, velocity: float) -> bool:
+        """Take the measured velocity (mm/cycle) at the proposed phase; return whether the trial was accepted."""

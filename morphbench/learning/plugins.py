@@ -1,0 +1,170 @@
+"""Choosing a learner by name (``--learner``), per-unit random streams, and building one learner per unit.
+
+``--learner`` takes ``thermal`` or ``flaky`` (any case), or a plug-in class as ``package.module:ClassName``; the
+module is imported with ``importlib``, so its directory must be on ``sys.path`` (e.g. via ``PYTHONPATH``).
+
+The plug-in interface. A plug-in need not subclass ``morphbench.learning.Learner``, but it must:
+
+- be a class constructible as ``Cls(params, rng)``: ``params`` is the run's ``morphbench.params.LearnerParams``
+  and ``rng`` the unit's own ``numpy.random.Generator`` (draw every random number from it, so runs are
+  reproducible and units independent);
+- have ``propose() -> float``: the phase in [0, 1) the unit actuates with during the next learning step;
+- have ``update(velocity: float) -> bool``: the unit's own measured velocity (mm/cycle) at the proposed phase;
+  return whether the trial was accepted (this feeds the acceptance rate). The two calls strictly alternate;
+- expose ``phase``: the kept phase in [0, 1) (also right after construction), recorded every step.
+
+Each unit gets its own instance and sees only its own measurements. A complete minimal example, a greedy learner
+that keeps a trial only when it measured faster than the kept phase::
+
+    # my_learners.py    use with: --learner my_learners:Greedy
+    class Greedy:
+        def __init__(self, params, rng):
+            self.step_size = params.step_size
+            self.rng = rng
+            self.phase = float(rng.uniform(0.0, 1.0))
+            self.memory = float("-inf")
+            self.trial = self.phase
+
+        def propose(self):
+            self.trial = (self.phase + self.rng.uniform(-1.0, 1.0) * self.step_size) % 1.0
+            return self.trial
+
+        def update(self, velocity):
+            if velocity > self.memory:
+                self.phase, self.memory = self.trial, velocity
+                return True
+            return False
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import keyword
+
+import numpy as np
+
+from morphbench.errors import ConfigError
+from morphbench.learning.base import Learner
+from morphbench.learning.metropolis import FlakyLearner, ThermalLearner
+from morphbench.params import LearnerParams
+
+LEARNERS: dict[str, type[Learner]] = {"thermal": ThermalLearner, "flaky": FlakyLearner}
+
+LEARNER_STREAM = 0
+"""SeedSequence stream id of the learners (the run loop draws measurement noise from stream 1)."""
+
+_SOURCE = "--learner"
+_SPEC_FORM = "'thermal' or 'flaky' (any case), or a plug-in class as 'package.module:ClassName'"
+_METHODS = ("propose", "update")
+
+
+def _is_identifier(name: str) -> bool:
+    return name.isidentifier() and not keyword.iskeyword(name)
+
+
+def load_learner_class(spec: str) -> type[Learner]:
+    """The learner class named by ``spec``; raises ConfigError (never another exception) if it is unusable."""
+    if not isinstance(spec, str):
+        raise ConfigError(_SOURCE, repr(spec), f"a string: {_SPEC_FORM}")
+    builtin = LEARNERS.get(spec.strip().lower())
+    if builtin is not None:
+        return builtin
+    module_name, colon, class_name = spec.strip().partition(":")
+    if not (colon and all(_is_identifier(part) for part in module_name.split(".")) and _is_identifier(class_name)):
+        raise ConfigError(_SOURCE, spec, _SPEC_FORM)
+
+    def fail(expected: str) -> ConfigError:
+        return ConfigError(_SOURCE, spec, expected)
+
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        # tell a missing plug-in module apart from a plug-in whose own imports fail
+        missing = exc.name or ""
+        if missing == module_name or module_name.startswith(missing + "."):
+            raise fail(f"an importable module {module_name!r} ({exc}; is its directory on sys.path?)") from None
+        raise fail(f"module {module_name!r} to import cleanly (it raised {_describe(exc)})") from None
+    except (Exception, SystemExit) as exc:  # SystemExit too: a plug-in calling sys.exit() must not end the run
+        raise fail(f"module {module_name!r} to import cleanly (it raised {_describe(exc)})") from None
+
+    try:
+        cls = getattr(module, class_name)
+    except AttributeError:
+        raise fail(f"module {module_name!r} to define a class {class_name!r} (it has no such attribute)") from None
+    except Exception as exc:  # a module-level __getattr__ may raise anything
+        raise fail(f"module {module_name!r} to define a class {class_name!r} (it raised {_describe(exc)})") from None
+    if not inspect.isclass(cls):
+        raise fail(f"{class_name!r} to be a class (it is a {type(cls).__name__})")
+    missing_methods = [name for name in _METHODS if not callable(getattr(cls, name, None))]
+    if missing_methods:
+        raise fail(
+            f"class {class_name!r} to have methods propose() and update(velocity) "
+            f"(missing: {', '.join(missing_methods)})"
+        )
+    if inspect.isabstract(cls):
+        raise fail(f"a concrete class ({class_name!r} leaves abstract: {', '.join(sorted(cls.__abstractmethods__))})")
+    try:
+        signature = inspect.signature(cls)
+    except (TypeError, ValueError):
+        signature = None  # some classes (e.g. C extensions) have no inspectable signature: construction will tell
+    if signature is not None:
+        try:
+            signature.bind(None, None)
+        except TypeError:
+            expected = f"class {class_name!r} constructible as {class_name}(params, rng) (its signature is {signature})"
+            raise fail(expected) from None
+    return cls
+
+
+def unit_rng(seed: int, unit: int) -> np.random.Generator:
+    """The learner's random stream of unit ``unit`` (0-based) in a run seeded with ``seed``."""
+    return np.random.default_rng(np.random.SeedSequence([seed, LEARNER_STREAM, unit]))
+
+
+def make_learners(cls: type, params: LearnerParams, seed: int, n_units: int) -> list:
+    """One learner per unit, unit i with ``unit_rng(seed, i)``; a failing plug-in raises ConfigError."""
+    if n_units < 0:
+        raise ValueError(f"n_units must be >= 0, got {n_units}")
+    name = _class_name(cls)
+    learners = []
+    for unit in range(n_units):
+        try:
+            learner = cls(params, unit_rng(seed, unit))
+        except ConfigError:
+            raise  # already names its source and key (e.g. bad LearnerParams)
+        except (Exception, SystemExit) as exc:
+            expected = f"a class constructible as {cls.__name__}(params, rng) (constructing it raised {_describe(exc)})"
+            raise ConfigError(_SOURCE, name, expected) from None
+        _check_phase(learner, name)
+        learners.append(learner)
+    return learners
+
+
+def _check_phase(learner: object, name: str) -> None:
+    """A plug-in's ``phase`` must exist and lie in [0, 1) after construction: the run loop records it."""
+    expected = "instances to expose 'phase', the kept phase as a number in [0, 1)"
+    try:
+        phase = getattr(learner, "phase")
+    except AttributeError:
+        raise ConfigError(_SOURCE, name, f"{expected} (it has none)") from None
+    except Exception as exc:  # a property may raise anything
+        raise ConfigError(_SOURCE, name, f"{expected} (reading it raised {_describe(exc)})") from None
+    try:
+        valid = 0.0 <= float(phase) < 1.0  # False for NaN
+    except (TypeError, ValueError, OverflowError):
+        valid = False
+    if not valid:
+        raise ConfigError(_SOURCE, name, expected, phase)
+
+
+def _class_name(cls: type) -> str:
+    """How ``--learner`` names ``cls``: its registry key for a built-in, else 'module:ClassName'."""
+    for key, builtin in LEARNERS.items():
+        if cls is builtin:
+            return key
+    return f"{getattr(cls, '__module__', '?')}:{getattr(cls, '__qualname__', cls)}"
+
+
+def _describe(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
