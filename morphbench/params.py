@@ -3,8 +3,9 @@
 Lengths are metres, masses kilograms, times seconds, forces newtons. Velocities are reported in mm/cycle
 (the paper's unit) only where they leave the simulation: in measurements, records and summaries.
 
-The defaults are calibrated so that the 2-unit phase scan reproduces the paper's curve (forward maximum of about
-+4.5 mm/cycle near a phase difference of 0.4, backward minimum of about -3 to -4 near 0.6, zero at equal phases);
+The defaults are calibrated, at the default (fast) physics setting, so that the 2-unit phase scan reproduces the
+paper's curve (forward maximum of about +4.5 mm/cycle near a phase difference of 0.4, backward minimum of about -3
+near 0.55-0.6, about zero at equal phases);
 see docs/calibration.md for the measured curve and how it moves with each parameter.
 """
 
@@ -33,13 +34,14 @@ class UnitParams:
 class DummyParams:
     """The passive unit at the rear of a chain: no actuator, no pump, no learner.
 
-    Its friction is 1.2x an active unit's: the paper explains its forward/backward asymmetry by the pump vibration
-    lowering active units' friction, and equal friction everywhere leaves an even chain drifting at equal phases.
+    Its friction is 1.4x an active unit's: the paper explains its forward/backward asymmetry by the pump vibration
+    lowering active units' friction (which a heavier-friction dummy stands in for), and equal friction everywhere
+    makes the 2-unit curve antisymmetric and leaves even chains in a friction tie at equal phases.
     """
 
     mass: float = 0.050
     """kg."""
-    friction: float = 0.6
+    friction: float = 0.7
     """Coulomb friction coefficient against the ground."""
 
 
@@ -49,16 +51,20 @@ class ActuatorParams:
 
     The pump runs for a fraction ``alpha`` of each cycle starting at the unit's phase; pressure (0..1) rises towards 1
     with time constant ``tau_inflate`` while it runs and vents towards 0 with ``tau_vent`` (the needle is always
-    open). The bellows extends by ``stroke * pressure`` beyond ``rest_gap``. It is force-limited: it cannot push or
-    pull harder than ``max_force``, so a long chain can stall it.
+    open). The bellows is a spring-damper whose rest length is ``rest_gap + stroke * pressure``: unloaded it extends
+    by the stroke, loaded it gives way by force / stiffness. Its force is capped at ``max_force``.
     """
 
-    stroke: float = 0.0086
-    """m, extension at full pressure."""
+    stroke: float = 0.0105
+    """m, extension at full pressure with no load."""
     rest_gap: float = 0.010
     """m, gap between the two units' faces when the bellows is empty."""
+    stiffness: float = 200.0
+    """N/m, axial stiffness of the bellows."""
+    damping: float = 2.0
+    """N s/m, axial damping of the bellows."""
     max_force: float = 5.0
-    """N, the largest force the bellows exerts along its axis (stall force)."""
+    """N, the largest force the bellows exerts along its axis."""
     tau_inflate: float = 0.2
     """s, pressure time constant while the pump runs."""
     tau_vent: float = 0.3
@@ -77,9 +83,6 @@ class PhysicsParams:
     """s, physics step."""
     solver_iterations: int = 10
     """constraint solver iterations per physics step."""
-    substeps: int = 2
-    """physics steps per control tick: actuator targets change once per tick (a tick of 1/60 s resolves
-    pressure time constants of 0.2 s)."""
     settle_time: float = 0.25
     """s, simulated before the first cycle so the units rest on the ground."""
 
@@ -87,7 +90,7 @@ class PhysicsParams:
 FAST_PHYSICS = PhysicsParams()
 """The default: fast, and within a few percent of the reference landscape (docs/calibration.md)."""
 
-REFERENCE_PHYSICS = PhysicsParams(timestep=1 / 240, solver_iterations=50, substeps=4)
+REFERENCE_PHYSICS = PhysicsParams(timestep=1 / 240, solver_iterations=50)
 """Small step and many solver iterations: what the fast setting is measured against."""
 
 PHYSICS_PRESETS = {"fast": FAST_PHYSICS, "reference": REFERENCE_PHYSICS}
@@ -123,3 +126,56 @@ class SensorParams:
 
 
 SENSOR_KINDS = ("ideal",)
+
+
+@dataclass(frozen=True, kw_only=True)
+class GroundParams:
+    """The textured ground that optical sensors look at: one tile, procedural or from an image file, repeated
+    over the whole plane (morphbench.sensing.ground)."""
+
+    image: str = ""
+    """path of an image file used as the tile, read in greyscale; '' makes a procedural tile from the fields below."""
+    seed: int = 1
+    """seed of the procedural tile: the same seed gives the same ground."""
+    grain: float = 0.002
+    """m, feature size of the procedural tile: standard deviation of the Gaussian that smooths its white noise."""
+    contrast: float = 0.5
+    """in (0, 1], of the procedural tile: its grey levels have a standard deviation of contrast / 6 of the full range
+    around mid-grey, so +-3 standard deviations span this fraction of black to white."""
+    resolution: float = 0.001
+    """m, ground size of one tile pixel, for a procedural tile and an image file alike."""
+    length: float = 2.0
+    """m, procedural tile's extent along the world x axis (an image's extent is its size times the resolution)."""
+    width: float = 0.5
+    """m, procedural tile's extent along the world y axis."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class OpticalParams:
+    """Each unit's optical motion sensor (morphbench.sensing.optical): a small camera on the unit's underside that
+    looks straight down at the ground, like an optical mouse, and tracks the image's motion between frames.
+
+    Scaled to what the simulation affords: a real mouse sensor takes thousands of frames a second of about 0.05 mm
+    pixels; here fewer, coarser frames keep the sensor's cost small while a unit at its top speed (about 30 mm/s)
+    still moves only a few pixels between frames.
+    """
+
+    frame_rate: float = 10.0
+    """Hz, frames per second: the sensor's sample rate."""
+    patch_size: int = 32
+    """px, side of the square image."""
+    pixel_size: float = 0.001
+    """m, ground size of one image pixel when the sensor looks straight down (its nominal resolution)."""
+    noise: float = 0.01
+    """standard deviation of the Gaussian noise added to every pixel, as a fraction of the black-to-white range."""
+    blur: float = 0.0
+    """px, standard deviation of a Gaussian blur of the optics, applied before the noise (0: none)."""
+    liftoff_height: float = 0.0015
+    """m, above this height over the ground the sensor reports no motion, as a mouse does when lifted."""
+    mount_x: float = 0.0
+    """m, the sensor's position along the unit's forward axis, from the unit's centre."""
+    mount_y: float = 0.0
+    """m, the sensor's position along the unit's left axis, from the unit's centre."""
+    mount_depth: float = 0.015
+    """m, how far below the unit's centre (along the unit's own down axis) the sensor sits: half the unit's height
+    puts it on the underside, where a unit resting on the ground has zero lift."""

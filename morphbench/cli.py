@@ -1,0 +1,179 @@
+"""The ``morphbench`` command: a thin layer over the Python API (``morphbench.experiment``).
+
+Bad input exits with status 2 and one line naming the file or option, the key and what was expected.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+from morphbench.errors import ConfigError
+from morphbench.params import PHYSICS_PRESETS, SENSOR_KINDS, LearnerParams, SensorParams
+
+EXIT_BAD_INPUT = 2
+
+
+def _number(low: float, high: float = math.inf, *, low_inclusive: bool = False, integer: bool = False):
+    """An argparse type: a finite number (or integer) in the given range, with a message that says the range."""
+    kind = "an integer" if integer else "a number"
+    bound = f"{'>=' if low_inclusive else '>'} {low:g}" + (f" and <= {high:g}" if math.isfinite(high) else "")
+
+    def parse(text: str):
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {kind} {bound}, got {text!r}") from None
+        ok = math.isfinite(value) and (value >= low if low_inclusive else value > low) and value <= high
+        if not ok:
+            raise argparse.ArgumentTypeError(f"expected {kind} {bound}, got {text!r}")
+        return value
+
+    return parse
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="morphbench", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    run = sub.add_parser("run", help="learn a gait on a shape and write records, summary and a learning curve")
+    run.add_argument("shape", help="morphology file, e.g. shapes/chain-3.toml")
+    run.add_argument("--learner", default="thermal", help="thermal, flaky or a plug-in package.module:Class")
+    run.add_argument("--steps", type=_number(0, low_inclusive=True, integer=True), default=100,
+                     help="learning steps after the initial measurement (default 100)")
+    run.add_argument("--seed", type=_number(0, low_inclusive=True, integer=True), default=0)
+    run.add_argument("--temperature", type=_number(0), default=LearnerParams().temperature,
+                     help="T in mm/cycle (default %(default)s)")
+    run.add_argument("--step-size", type=_number(0, 1), default=LearnerParams().step_size,
+                     help="delta_s in cycles (default %(default)s)")
+    run.add_argument("--cycles-per-step", type=_number(1, low_inclusive=True, integer=True),
+                     default=LearnerParams().cycles_per_step, help="n_act (default %(default)s)")
+    run.add_argument("--sensor", choices=SENSOR_KINDS, default=SensorParams().kind)
+    run.add_argument("--noise", type=_number(0, low_inclusive=True), default=0.0,
+                     help="Gaussian measurement noise, mm/cycle (default 0)")
+    _add_physics(run)
+    run.add_argument("--out", help="output directory (default runs/SHAPE-LEARNER-seedS)")
+    run.add_argument("--overwrite", action="store_true", help="replace the records of an earlier run in --out")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    scan = sub.add_parser("scan", help="Ubar at fixed phases over all phase differences (no learning)")
+    scan.add_argument("shape")
+    scan.add_argument("--resolution", type=_number(1, low_inclusive=True, integer=True), default=20,
+                      help="points per phase axis (default %(default)s)")
+    scan.add_argument("--samples", type=_number(1, low_inclusive=True, integer=True),
+                      help="random phase vectors for 4 or more units (default resolution^2)")
+    scan.add_argument("--cycles", type=_number(1, low_inclusive=True, integer=True), default=None,
+                      help="cycles measured per point")
+    scan.add_argument("--seed", type=_number(0, low_inclusive=True, integer=True), default=0)
+    scan.add_argument("--workers", type=_number(1, low_inclusive=True, integer=True), default=1)
+    _add_physics(scan)
+    scan.add_argument("--out", help="output directory (default runs/scan-SHAPE)")
+    scan.add_argument("--overwrite", action="store_true", help="replace an earlier scan in --out")
+    scan.add_argument("--quiet", action="store_true")
+    return parser
+
+
+def _add_physics(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--physics", choices=sorted(PHYSICS_PRESETS), default="fast",
+                        help="integration setting (default fast; reference is slower and is what fast is checked against)")
+
+
+def _output_dir(out: str, marker: str, overwrite: bool) -> Path:
+    """The output directory, refusing to overwrite an earlier result unless asked to."""
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise ConfigError("--out", out, "a directory (this is a file)")
+    if (path / marker).exists() and not overwrite:
+        raise ConfigError("--out", out, f"a new directory: it already holds {marker} (pass --overwrite to replace it)")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError("--out", out, f"a directory that can be created ({exc.strerror})") from None
+    return path
+
+
+def _cmd_run(args) -> int:
+    from tqdm import tqdm
+
+    from morphbench import plots
+    from morphbench.experiment import RunConfig, run
+    from morphbench.learning import load_learner_class
+    from morphbench.shapes import load_shape
+
+    shape = load_shape(args.shape)
+    load_learner_class(args.learner)  # fail on a bad plug-in before simulating
+    learner_name = args.learner.rsplit(":", 1)[-1].lower()
+    out = _output_dir(args.out or f"runs/{shape.name}-{learner_name}-seed{args.seed}", "summary.json", args.overwrite)
+    config = RunConfig(
+        shape=shape,
+        learner=args.learner,
+        learner_params=LearnerParams(temperature=args.temperature, step_size=args.step_size,
+                                     cycles_per_step=args.cycles_per_step),
+        sensor=SensorParams(kind=args.sensor, noise=args.noise),
+        physics=PHYSICS_PRESETS[args.physics],
+        steps=args.steps,
+        seed=args.seed,
+    )
+    with tqdm(total=args.steps + 1, desc=f"{shape.name} {learner_name}", unit="step", disable=args.quiet) as bar:
+        def progress(step, records):
+            bar.update(1)
+            bar.set_postfix_str(f"Ubar {records.last_ubar:+.2f} mm/cycle")
+
+        records = run(config, progress)
+    records.write(out)
+    plots.learning_curve(records.steps(), records.units(), out / "learning_curve.png",
+                         title=f"{shape.name}, {learner_name}, seed {args.seed}")
+    summary = records.summary()
+    print(f"{shape.name}: final Ubar {summary['final_ubar']:+.2f} mm/cycle (true {summary['final_ubar_true']:+.2f}), "
+          f"mean acceptance {summary['mean_acceptance']:.2f}, {summary['wall_time_s']:.1f} s wall time")
+    print(f"records in {out}/ (units.parquet, steps.parquet, summary.json, learning_curve.png)")
+    return 0
+
+
+def _cmd_scan(args) -> int:
+    from tqdm import tqdm
+
+    from morphbench import plots
+    from morphbench.experiment import scan, scan_phases
+    from morphbench.experiment.scan import DEFAULT_CYCLES
+    from morphbench.shapes import load_shape
+
+    shape = load_shape(args.shape)
+    if shape.n_units < 2:
+        raise ConfigError(args.shape, "assembly.units", "at least 2 active units to scan phase differences", 1)
+    out = _output_dir(args.out or f"runs/scan-{shape.name}", "scan.csv", args.overwrite)
+    n_points = len(scan_phases(shape.n_units, args.resolution, args.samples))
+    with tqdm(total=n_points, desc=f"scan {shape.name}", unit="point", disable=args.quiet) as bar:
+        table = scan(shape, args.resolution, physics=PHYSICS_PRESETS[args.physics],
+                     cycles=args.cycles or DEFAULT_CYCLES, samples=args.samples, seed=args.seed,
+                     workers=args.workers, progress=bar.update)
+    table.to_csv(out / "scan.csv", index=False, float_format="%.6g")
+    plots.scan_figure(table, out / "scan.png", title=f"{shape.name}: Ubar at fixed phases")
+    best = table.loc[table.ubar.idxmax()]
+    worst = table.loc[table.ubar.idxmin()]
+    dphi = [c for c in table.columns if c.startswith("dphi_")]
+
+    def describe(row) -> str:
+        return ", ".join(f"{c} = {row[c]:.3f}" for c in dphi)
+
+    print(f"{shape.name}: max Ubar {best.ubar:+.2f} mm/cycle at {describe(best)}; "
+          f"min {worst.ubar:+.2f} at {describe(worst)}")
+    if len(dphi) == 1:
+        print(table.to_string(index=False, float_format=lambda v: f"{v:+.2f}"))
+    print(f"scan in {out}/ (scan.csv, scan.png)")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        return {"run": _cmd_run, "scan": _cmd_scan}[args.command](args)
+    except ConfigError as exc:
+        print(f"morphbench: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+if __name__ == "__main__":
+    sys.exit(main())

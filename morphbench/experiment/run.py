@@ -1,0 +1,93 @@
+"""The run loop: one world, one sensor bank, one learner per unit, learning steps of ``cycles_per_step`` cycles.
+
+The CLI, the scans and the tests all go through ``run`` (and ``measure`` for fixed phases).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from morphbench.errors import ConfigError
+from morphbench.experiment.records import RunRecords
+from morphbench.learning import load_learner_class, make_learners
+from morphbench.params import FAST_PHYSICS, SENSOR_KINDS, LearnerParams, PhysicsParams, SensorParams
+from morphbench.physics import World
+from morphbench.sensing import IdealSensor, Sensor
+from morphbench.shapes import Shape
+
+NOISE_STREAM = 1  # SeedSequence([seed, NOISE_STREAM, unit]) is unit's measurement-noise stream; 0 is its learner's
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunConfig:
+    """Everything that determines a run: the same config and seed give identical records."""
+
+    shape: Shape
+    learner: str = "thermal"
+    """'thermal', 'flaky' or a plug-in 'package.module:Class'."""
+    learner_params: LearnerParams = field(default_factory=LearnerParams)
+    sensor: SensorParams = field(default_factory=SensorParams)
+    physics: PhysicsParams = FAST_PHYSICS
+    steps: int = 100
+    """learning steps after the initial measurement (step 0)."""
+    seed: int = 0
+
+
+def make_sensor(params: SensorParams, n_units: int) -> Sensor:
+    """The sensor bank a run uses."""
+    if params.kind == "ideal":
+        return IdealSensor(n_units, params.sample_period)
+    raise ConfigError("--sensor", "sensor", f"one of {', '.join(SENSOR_KINDS)}", params.kind)
+
+
+def measure(world: World, sensors: list[Sensor], n_cycles: int) -> list[np.ndarray]:
+    """Advance ``n_cycles`` actuation cycles at the world's current phases; each sensor bank's displacement (m)."""
+    n_ticks = world.ticks_in(n_cycles * world.shape.actuator.cycle_time)
+    poses = world.unit_poses()
+    for sensor in sensors:
+        sensor.reset(*poses)
+    periods = [max(1, world.ticks_in(sensor.sample_period)) for sensor in sensors]
+
+    def on_tick(k: int) -> None:
+        due = [s for s, every in zip(sensors, periods) if (k + 1) % every == 0 and k + 1 < n_ticks]
+        if due:
+            tick_poses = world.unit_poses()
+            for sensor in due:
+                sensor.sample(*tick_poses)
+
+    world.advance(n_ticks, on_tick if min(periods) < n_ticks else None)
+    poses = world.unit_poses()
+    for sensor in sensors:
+        sensor.sample(*poses)
+    return [sensor.displacement() for sensor in sensors]
+
+
+def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = None) -> RunRecords:
+    """Learn for ``config.steps`` learning steps; ``progress(step, records)`` is called after each step."""
+    shape, lp = config.shape, config.learner_params
+    learners = make_learners(load_learner_class(config.learner), lp, config.seed, shape.n_units)
+    noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u])) for u in range(shape.n_units)]
+    sensor = make_sensor(config.sensor, shape.n_units)
+    truth = IdealSensor(shape.n_units, sample_period=config.sensor.sample_period)
+    records = RunRecords(config)
+    started = time.perf_counter()
+    with World(shape, config.physics) as world:
+        for step in range(config.steps + 1):
+            tried = np.array([learner.propose() for learner in learners], dtype=float)
+            world.set_phases(tried)
+            sensed, true = measure(world, [sensor, truth], lp.cycles_per_step)
+            to_mm_per_cycle = 1000.0 / lp.cycles_per_step
+            noise = np.array([rng.normal(0.0, config.sensor.noise) if config.sensor.noise else 0.0 for rng in noise_rngs])
+            u_measured = sensed * to_mm_per_cycle + noise
+            # Each learner gets its own unit's measurement and nothing else.
+            accepted = np.array([bool(learner.update(float(u))) for learner, u in zip(learners, u_measured)])
+            kept = np.array([learner.phase for learner in learners], dtype=float)
+            records.add_step(step, world.time, tried, kept, u_measured, true * to_mm_per_cycle, accepted)
+            if progress is not None:
+                progress(step, records)
+    records.finish(wall_time=time.perf_counter() - started)
+    return records

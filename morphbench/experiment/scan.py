@@ -1,0 +1,71 @@
+"""Landscape scans: Ubar at fixed phases over the phase differences relative to unit 1 (no learning).
+
+For 2 units the scan is a curve over dphi_2, for 3 a grid over (dphi_2, dphi_3); beyond that the space is sampled
+at seeded random points. Each point is its own world (fresh, settled, ``discard`` cycles of transient dropped), so
+points are independent and the result is the same whatever the number of workers.
+"""
+
+from __future__ import annotations
+
+import itertools
+from contextlib import nullcontext
+from concurrent.futures import ProcessPoolExecutor
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from morphbench.experiment.run import measure
+from morphbench.params import FAST_PHYSICS, PhysicsParams
+from morphbench.physics import World
+from morphbench.sensing import IdealSensor
+from morphbench.shapes import Shape
+
+DEFAULT_CYCLES = 12  # cycles measured per point: the gait repeats every cycle, 12 average out slow transients
+DEFAULT_DISCARD = 2  # cycles dropped first: the pressures and the chain settle into the periodic gait
+
+
+def scan_phases(n_units: int, resolution: int, samples: int | None = None, seed: int = 0) -> np.ndarray:
+    """(P, n_units) phase vectors with unit 1 at phase 0: a full grid up to 3 units, seeded samples beyond."""
+    if n_units < 2:
+        return np.zeros((1, n_units))
+    if n_units <= 3:
+        axis = np.arange(resolution) / resolution
+        grid = np.array(list(itertools.product(axis, repeat=n_units - 1)))
+    else:
+        rng = np.random.default_rng(np.random.SeedSequence([seed, 2]))
+        grid = rng.uniform(0.0, 1.0, size=(samples or resolution * resolution, n_units - 1))
+    return np.hstack([np.zeros((len(grid), 1)), grid])
+
+
+def velocity_at(shape: Shape, phases, physics: PhysicsParams = FAST_PHYSICS, cycles: int = DEFAULT_CYCLES,
+                discard: int = DEFAULT_DISCARD) -> np.ndarray:
+    """True velocity of each unit (mm/cycle) at fixed phases, averaged over ``cycles`` after ``discard``."""
+    with World(shape, physics) as world:
+        world.set_phases(phases)
+        world.advance(world.ticks_in(discard * shape.actuator.cycle_time))
+        (displacement,) = measure(world, [IdealSensor(shape.n_units, sample_period=0.5)], cycles)
+    return displacement * 1000.0 / cycles
+
+
+def _ubar(args) -> float:
+    shape, phases, physics, cycles, discard = args
+    return float(np.mean(velocity_at(shape, phases, physics, cycles, discard)))
+
+
+def scan(shape: Shape, resolution: int = 20, *, physics: PhysicsParams = FAST_PHYSICS, cycles: int = DEFAULT_CYCLES,
+         discard: int = DEFAULT_DISCARD, samples: int | None = None, seed: int = 0, workers: int = 1,
+         progress: Callable[[int], None] | None = None) -> pd.DataFrame:
+    """Ubar over phase differences: columns ``dphi_2`` ... ``dphi_N`` (cycles) and ``ubar`` (mm/cycle)."""
+    phases = scan_phases(shape.n_units, resolution, samples, seed)
+    jobs = [(shape, p, physics, cycles, discard) for p in phases]
+    ubar = []
+    with ProcessPoolExecutor(max_workers=workers) if workers > 1 else nullcontext() as pool:
+        chunk = max(1, len(jobs) // (8 * workers))
+        for value in pool.map(_ubar, jobs, chunksize=chunk) if pool else map(_ubar, jobs):
+            ubar.append(value)
+            if progress:
+                progress(1)
+    table = pd.DataFrame(phases[:, 1:], columns=[f"dphi_{i}" for i in range(2, shape.n_units + 1)])
+    table["ubar"] = ubar
+    return table

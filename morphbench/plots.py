@@ -1,0 +1,69 @@
+"""PNG figures of a run and of a scan (matplotlib, off-screen)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # off-screen: no display on the machines that run suites
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+
+def learning_curve(steps: pd.DataFrame, units: pd.DataFrame, path: str | Path, title: str = "") -> Path:
+    """Ubar and acceptance vs learning step, and each unit's kept phase."""
+    fig, (ax_u, ax_a, ax_p) = plt.subplots(3, 1, figsize=(7, 7.5), sharex=True)
+    ax_u.plot(steps.step, steps.ubar, lw=1, label="measured")
+    if not np.allclose(steps.ubar, steps.ubar_true):
+        ax_u.plot(steps.step, steps.ubar_true, lw=1, alpha=0.7, label="true")
+        ax_u.legend(loc="lower right")
+    ax_u.axhline(0, color="k", lw=0.5)
+    ax_u.set_ylabel("Ubar (mm/cycle)")
+    ax_a.plot(steps.step, steps.acceptance.rolling(10, min_periods=1).mean(), lw=1)
+    ax_a.set_ylabel("acceptance\n(10-step mean)")
+    ax_a.set_ylim(-0.02, 1.02)
+    for unit, rows in units.groupby("unit"):
+        ax_p.plot(rows.step, rows.phase_kept, ".", ms=2, label=f"unit {unit}")
+    ax_p.set_ylabel("kept phase (cycles)")
+    ax_p.set_ylim(0, 1)
+    ax_p.set_xlabel("learning step")
+    if units.unit.nunique() <= 8:
+        ax_p.legend(loc="upper right", fontsize="small", markerscale=4)
+    fig.suptitle(title)
+    return _save(fig, path)
+
+
+def scan_figure(table: pd.DataFrame, path: str | Path, title: str = "") -> Path:
+    """A curve for 2 units, a heat map for 3, the distribution of sampled Ubar beyond."""
+    dphi = [c for c in table.columns if c.startswith("dphi_")]
+    fig, ax = plt.subplots(figsize=(6.5, 5))
+    if len(dphi) == 1:
+        ax.plot(table[dphi[0]], table.ubar, "o-", ms=3)
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_xlabel("phase difference dphi_2 (cycles)")
+        ax.set_ylabel("Ubar (mm/cycle)")
+    elif len(dphi) == 2:
+        grid = table.pivot(index="dphi_3", columns="dphi_2", values="ubar")
+        limit = float(np.nanmax(np.abs(grid.values))) or 1.0
+        mesh = ax.pcolormesh(grid.columns, grid.index, grid.values, cmap="RdBu_r", vmin=-limit, vmax=limit,
+                             shading="nearest")
+        fig.colorbar(mesh, ax=ax, label="Ubar (mm/cycle)")
+        ax.set_xlabel("dphi_2 (cycles)")
+        ax.set_ylabel("dphi_3 (cycles)")
+        ax.set_aspect("equal")
+    else:
+        ax.hist(table.ubar, bins=30)
+        ax.set_xlabel(f"Ubar (mm/cycle) at {len(table)} sampled phase vectors")
+        ax.set_ylabel("count")
+    ax.set_title(title)
+    return _save(fig, path)
+
+
+def _save(fig, path: str | Path) -> Path:
+    path = Path(path)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,128 @@
+"""The textured ground under the units: what their optical sensors look at (pure numpy/OpenCV, no simulator).
+
+The texture is one tile, a grey image in [0, 1] whose column index runs along the world x axis and whose row index
+runs along the world y axis, ``resolution`` metres per pixel, with texture pixel (0, 0) centred on the world origin.
+It repeats without end in both directions, so a unit can travel any distance without leaving it. A procedural tile
+is periodic (its noise is smoothed across the seams), so the repetition has no visible seam; an image file usually
+has seams where its opposite edges meet.
+
+Patches are cut with ``cv2.remap`` (bilinear, sub-pixel; OpenCV resolves positions to 1/32 of a texture pixel, and
+the error this leaves in a measured shift does not accumulate: consecutive frames' position errors cancel in the sum).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from morphbench.errors import ConfigError
+from morphbench.params import GroundParams
+
+MAX_TEXTURE_PIXELS = 64_000_000
+"""Largest tile, in pixels (256 MB as float32): larger ones are almost certainly a unit mistake."""
+
+MIN_TEXTURE_PIXELS = 8
+"""Smallest side of a tile, in pixels."""
+
+
+class GroundTexture:
+    """One tile of ground texture, repeated over the whole plane; cuts the patch a sensor sees at any pose."""
+
+    def __init__(self, params: GroundParams = GroundParams(), *, source: str = "GroundParams"):
+        """Make the procedural tile of ``params``, or load ``params.image``. Bad input raises ``ConfigError``
+        naming ``source`` (the file or table the parameters came from) and the key."""
+        _check(params, source)
+        self.params = params
+        self.resolution = params.resolution
+        """m, ground size of one texture pixel."""
+        self.image = _load(params, source) if params.image else _procedural(params)
+        """float32 (rows along world y, columns along world x) grey levels in [0, 1]; one tile."""
+        self.image.setflags(write=False)
+
+    @property
+    def extent(self) -> tuple[float, float]:
+        """m, size of one tile along the world x and y axes (the tile repeats with this period)."""
+        rows, cols = self.image.shape
+        return cols * self.resolution, rows * self.resolution
+
+    def patch(self, x: float, y: float, yaw: float, size_px: int, m_per_px: float) -> np.ndarray:
+        """The ``size_px`` x ``size_px`` float32 image seen straight down from above ground point (x, y) m.
+
+        Image columns run along the unit's forward axis (world angle ``yaw``, rad), rows along its left axis
+        (yaw + 90 degrees); each image pixel covers ``m_per_px`` metres of ground and the point (x, y) is at the
+        image centre, ((size_px - 1) / 2, (size_px - 1) / 2).
+        """
+        c, s = math.cos(yaw), math.sin(yaw)
+        footprints = np.array([[[c, -s], [s, c]]]) * m_per_px
+        return self.patches(np.array([[x, y]]), footprints, size_px)[0]
+
+    def patches(self, centres: np.ndarray, footprints: np.ndarray, size_px: int) -> np.ndarray:
+        """(N, size_px, size_px) float32 images, one per view, in a single vectorised remap.
+
+        ``centres``: (N, 2) m, the ground point at each image centre. ``footprints``: (N, 2, 2) m per image pixel,
+        column 0 the ground step of one pixel along the image columns (u), column 1 along the rows (v); a rotation
+        times the pixel size is a sensor looking straight down, longer columns model a tilted one.
+        """
+        n = len(centres)
+        centre = (size_px - 1) / 2
+        grid = np.mgrid[0:size_px, 0:size_px][::-1].reshape(2, -1) - centre  # (u, v) offsets of every pixel
+        tile = np.array([self.image.shape[1], self.image.shape[0]])
+        # Wrap the centre into the tile so coordinates stay small (float32 keeps them exact); BORDER_WRAP does the rest.
+        origins = np.mod(np.asarray(centres, dtype=float) / self.resolution, tile)
+        coords = np.matmul(np.asarray(footprints, dtype=float) / self.resolution, grid) + origins[:, :, None]
+        maps = coords.astype(np.float32).transpose(1, 0, 2).reshape(2, n * size_px, size_px)
+        views = cv2.remap(self.image, maps[0], maps[1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
+        return views.reshape(n, size_px, size_px)
+
+
+def _check(params: GroundParams, source: str) -> None:
+    positive = {"resolution": params.resolution, "grain": params.grain, "length": params.length, "width": params.width}
+    for key, value in positive.items():
+        if not _finite(value) or value <= 0:
+            raise ConfigError(source, key, "a finite number > 0 (metres)", value)
+    if not _finite(params.contrast) or not 0 < params.contrast <= 1:
+        raise ConfigError(source, "contrast", "a number in (0, 1]", params.contrast)
+    if isinstance(params.seed, bool) or not isinstance(params.seed, int) or params.seed < 0:
+        raise ConfigError(source, "seed", "an integer >= 0", params.seed)
+    if not isinstance(params.image, str):
+        raise ConfigError(source, "image", "a path to an image file, or '' for a procedural texture", params.image)
+    if not params.image:
+        shape = (round(params.width / params.resolution), round(params.length / params.resolution))
+        _check_size(shape, source, "length", f"{params.length} m x {params.width} m at {params.resolution} m/px")
+
+
+def _check_size(shape: tuple[int, int], source: str, key: str, got: str) -> None:
+    if min(shape) < MIN_TEXTURE_PIXELS or shape[0] * shape[1] > MAX_TEXTURE_PIXELS:
+        raise ConfigError(
+            source, key, f"a tile of {MIN_TEXTURE_PIXELS} to {MAX_TEXTURE_PIXELS:,} pixels per side/area", f"{got}"
+        )
+
+
+def _finite(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _procedural(params: GroundParams) -> np.ndarray:
+    """Band-limited noise: white noise smoothed by a Gaussian of ``grain`` metres, periodic, scaled by contrast."""
+    rows, cols = round(params.width / params.resolution), round(params.length / params.resolution)
+    white = np.random.default_rng(params.seed).standard_normal((rows, cols), dtype=np.float32)
+    sigma = params.grain / params.resolution
+    # Pad with the opposite edges before smoothing so the tile is periodic: no seam where it repeats.
+    pad = min(math.ceil(4 * sigma), rows, cols)
+    smooth = cv2.GaussianBlur(np.pad(white, pad, mode="wrap"), (0, 0), sigma)[pad:-pad, pad:-pad]
+    smooth = (smooth - smooth.mean()) / smooth.std()
+    return np.clip(0.5 + smooth * (params.contrast / 6), 0.0, 1.0).astype(np.float32)
+
+
+def _load(params: GroundParams, source: str) -> np.ndarray:
+    path = Path(params.image)
+    if not path.is_file():
+        raise ConfigError(source, "image", "an existing image file (PNG, JPEG, BMP, TIFF, ...)", params.image)
+    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if image is None:
+        raise ConfigError(source, "image", "an image file OpenCV can read (PNG, JPEG, BMP, TIFF, ...)", params.image)
+    _check_size(image.shape, source, "image", f"{image.shape[1]} x {image.shape[0]} px in {params.image}")
+    return image.astype(np.float32) / 255.0
