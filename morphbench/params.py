@@ -55,17 +55,17 @@ class ActuatorParams:
     by the stroke, loaded it gives way by force / stiffness. Its force is capped at ``max_force``.
     """
 
-    stroke: float = 0.0105
+    stroke: float = 0.0096
     """m, extension at full pressure with no load."""
     rest_gap: float = 0.010
     """m, gap between the two units' faces when the bellows is empty."""
-    stiffness: float = 200.0
+    stiffness: float = 300.0
     """N/m, axial stiffness of the bellows."""
     damping: float = 2.0
     """N s/m, axial damping of the bellows."""
     max_force: float = 5.0
     """N, the largest force the bellows exerts along its axis."""
-    tau_inflate: float = 0.2
+    tau_inflate: float = 0.3
     """s, pressure time constant while the pump runs."""
     tau_vent: float = 0.3
     """s, pressure time constant while the bellows vents."""
@@ -106,6 +106,11 @@ class LearnerParams:
     """T, mm/cycle: a worse trial (lower velocity by d) is accepted with probability exp(-d / T)."""
     cycles_per_step: int = 2
     """n_act: actuation cycles per learning step; a measurement is the displacement over them / n_act."""
+    warmup_cycles: int = 1
+    """cycles the units run at their initial phases before the first measurement, so that step 0 does not
+    measure the start from rest (the first extension from rest is a one-off transient of several mm)."""
+    discard_cycles: int = 0
+    """cycles run after each phase change before the measurement starts (the paper discards none)."""
     initial_memory: str = "measure"
     """what the memory holds before the first trial: 'measure' (velocity at the initial phase), '-inf' or 'zero'."""
 

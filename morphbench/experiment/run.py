@@ -75,10 +75,14 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
     truth = IdealSensor(shape.n_units, sample_period=config.sensor.sample_period)
     records = RunRecords(config)
     started = time.perf_counter()
+    cycle = shape.actuator.cycle_time
     with World(shape, config.physics) as world:
+        world.set_phases([learner.phase for learner in learners])
+        world.advance(world.ticks_in(lp.warmup_cycles * cycle))
         for step in range(config.steps + 1):
             tried = np.array([learner.propose() for learner in learners], dtype=float)
             world.set_phases(tried)
+            world.advance(world.ticks_in(lp.discard_cycles * cycle))
             sensed, true = measure(world, [sensor, truth], lp.cycles_per_step)
             to_mm_per_cycle = 1000.0 / lp.cycles_per_step
             noise = np.array([rng.normal(0.0, config.sensor.noise) if config.sensor.noise else 0.0 for rng in noise_rngs])

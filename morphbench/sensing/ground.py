@@ -1,8 +1,9 @@
 """The textured ground under the units: what their optical sensors look at (pure numpy/OpenCV, no simulator).
 
 The texture is one tile, a grey image in [0, 1] whose column index runs along the world x axis and whose row index
-runs along the world y axis, ``resolution`` metres per pixel, with texture pixel (0, 0) centred on the world origin.
-It repeats without end in both directions, so a unit can travel any distance without leaving it. A procedural tile
+runs along the world y axis, ``resolution`` metres per pixel. The tile is centred on the world origin: it covers
+x in [-length / 2, length / 2) and y in [-width / 2, width / 2), so units that start near the origin are far from
+its edges (cutting a patch across an edge takes OpenCV's slower border path). It repeats without end in both directions, so a unit can travel any distance without leaving it. A procedural tile
 is periodic (its noise is smoothed across the seams), so the repetition has no visible seam; an image file usually
 has seams where its opposite edges meet.
 
@@ -12,6 +13,7 @@ the error this leaves in a measured shift does not accumulate: consecutive frame
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -41,10 +43,13 @@ class GroundTexture:
         self.image = _load(params, source) if params.image else _procedural(params)
         """float32 (rows along world y, columns along world x) grey levels in [0, 1]; one tile."""
         self.image.setflags(write=False)
+        self._tile_px = np.array([[self.image.shape[1]], [self.image.shape[0]]], dtype=float)  # (x, y) periods, px
+        self._origin_px = self._tile_px / 2 - 0.5  # texture coordinates of the world origin (remap: pixel centres)
 
     @property
     def extent(self) -> tuple[float, float]:
-        """m, size of one tile along the world x and y axes (the tile repeats with this period)."""
+        """m, size of one tile along the world x and y axes: it covers [-x / 2, x / 2) by [-y / 2, y / 2) and repeats
+        with this period."""
         rows, cols = self.image.shape
         return cols * self.resolution, rows * self.resolution
 
@@ -55,27 +60,32 @@ class GroundTexture:
         (yaw + 90 degrees); each image pixel covers ``m_per_px`` metres of ground and the point (x, y) is at the
         image centre, ((size_px - 1) / 2, (size_px - 1) / 2).
         """
-        c, s = math.cos(yaw), math.sin(yaw)
-        footprints = np.array([[[c, -s], [s, c]]]) * m_per_px
-        return self.patches(np.array([[x, y]]), footprints, size_px)[0]
+        c, s = math.cos(yaw) * m_per_px, math.sin(yaw) * m_per_px
+        return self.patches(np.array([[[c, -s, x], [s, c, y]]]), size_px)[0]
 
-    def patches(self, centres: np.ndarray, footprints: np.ndarray, size_px: int) -> np.ndarray:
-        """(N, size_px, size_px) float32 images, one per view, in a single vectorised remap.
+    def patches(self, affines: np.ndarray, size_px: int) -> np.ndarray:
+        """(N, size_px, size_px) float32 images, one per view, cut in a single vectorised remap.
 
-        ``centres``: (N, 2) m, the ground point at each image centre. ``footprints``: (N, 2, 2) m per image pixel,
-        column 0 the ground step of one pixel along the image columns (u), column 1 along the rows (v); a rotation
-        times the pixel size is a sensor looking straight down, longer columns model a tilted one.
+        ``affines``: (N, 2, 3), for each view the map from an image pixel's offset (u, v, 1) from the image centre
+        (u along the columns, v along the rows) to the ground point (x, y) it shows, in metres. The first two columns
+        are the ground steps of one pixel along u and v (a rotation times the pixel size for a sensor looking
+        straight down), the third the ground point at the image centre.
         """
-        n = len(centres)
-        centre = (size_px - 1) / 2
-        grid = np.mgrid[0:size_px, 0:size_px][::-1].reshape(2, -1) - centre  # (u, v) offsets of every pixel
-        tile = np.array([self.image.shape[1], self.image.shape[0]])
-        # Wrap the centre into the tile so coordinates stay small (float32 keeps them exact); BORDER_WRAP does the rest.
-        origins = np.mod(np.asarray(centres, dtype=float) / self.resolution, tile)
-        coords = np.matmul(np.asarray(footprints, dtype=float) / self.resolution, grid) + origins[:, :, None]
-        maps = coords.astype(np.float32).transpose(1, 0, 2).reshape(2, n * size_px, size_px)
-        views = cv2.remap(self.image, maps[0], maps[1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
-        return views.reshape(n, size_px, size_px)
+        n = len(affines)
+        rows = np.asarray(affines, dtype=float).transpose(1, 0, 2) / self.resolution  # texture px; x rows, then y rows
+        # Wrap the centres into the tile so coordinates stay small (float32 keeps them exact); BORDER_WRAP does the rest.
+        rows[:, :, 2] = (rows[:, :, 2] + self._origin_px) % self._tile_px
+        # One matrix product gives every pixel's texture coordinates, already laid out as remap's two maps.
+        maps = rows.reshape(2 * n, 3).astype(np.float32) @ _pixel_offsets(size_px)
+        x_map, y_map = maps.reshape(2, n * size_px, size_px)
+        return cv2.remap(self.image, x_map, y_map, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP).reshape(n, size_px, size_px)
+
+
+@functools.cache
+def _pixel_offsets(size_px: int) -> np.ndarray:
+    """(3, size_px * size_px) float32 (u, v, 1): every pixel's offset from the image centre, row by row."""
+    v, u = np.mgrid[0:size_px, 0:size_px] - (size_px - 1) / 2
+    return np.array([u.ravel(), v.ravel(), np.ones(size_px * size_px)], dtype=np.float32)
 
 
 def _check(params: GroundParams, source: str) -> None:

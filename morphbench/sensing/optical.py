@@ -1,21 +1,26 @@
 """The optical sensor: each unit films the ground under it, like an optical mouse, and integrates the image motion.
 
 Each frame, for every unit at once:
-1. Pose -> view. The sensor sits at ``mount`` (unit frame) and looks along the unit's own down axis. The image's
-   columns run along the unit's forward axis and its rows along the unit's left axis, so forward motion is image
-   motion along the columns. Tilt is modelled exactly for a telecentric (orthographic) lens: the view is projected
-   along the optical axis onto the ground, so a tilted sensor sees a stretched (foreshortened) footprint and reports
-   a ground motion along the tilt direction shortened by cos(tilt). The image scale does not change with height (no
-   perspective); instead the sensor sees nothing above ``liftoff_height``, as a lifted mouse does.
-2. View -> frame: the ground patch is cut from the texture (``GroundTexture.patches``, one vectorised remap for all
-   units), optionally blurred, given Gaussian pixel noise and quantised to 8 bits (Lucas-Kanade in OpenCV needs 8-bit
+1. Pose -> view. The sensor sits at the mount point (unit frame) and looks along the unit's own down axis. The
+   image's columns run along the unit's forward axis and its rows along its left axis, so forward motion is image
+   motion along the columns. Tilt is modelled for a telecentric (orthographic) lens: the image is projected along
+   the optical axis onto the ground, so a tilted sensor sees a stretched footprint and reports a ground motion
+   along the tilt direction shortened by cos(tilt). The footprint is centred on the mount point itself, not on
+   where the tilted optical axis meets the ground: the two differ by at most ``liftoff_height * tan(tilt)``. The
+   image scale does not change with height (no perspective); instead the sensor sees nothing above
+   ``liftoff_height``, as a lifted mouse does.
+2. View -> frame: the ground patch is cut from the texture (``GroundTexture.patches``, one remap for all units),
+   optionally blurred, given Gaussian pixel noise and quantised to 8 bits (OpenCV's Lucas-Kanade needs 8-bit
    images, and real sensors have 6-8 bit pixels).
-3. Two frames -> shift: pyramidal Lucas-Kanade tracks the centre point of the previous frame into the current one
-   (``ShiftEstimator``), for all units in one OpenCV call on the frames stacked in one image. A shift is rejected
-   (the frame reports no motion) when tracking fails: no convergence, a shift beyond a quarter of the patch, or a
-   residual that shows the match is wrong.
+3. Two frames -> shift: pyramidal Lucas-Kanade tracks the centre of the previous frame into the current one
+   (``ShiftEstimator``), for all units in one OpenCV call on their frames stacked in one image. When tracking fails
+   (no convergence, a shift beyond a quarter of the patch, or a residual that shows a wrong match) the frame
+   reports no motion and counts in ``lost_frames``.
 4. Shift -> displacement: the image moves opposite to the unit, so the forward displacement is minus the column
-   shift times the pixel size. A frame reports motion only if the sensor was on the ground at both ends of it.
+   shift times the pixel size. A frame reports motion only if the sensor was on the ground at both of its ends.
+
+Cost: per frame a fixed few dozen numpy/OpenCV calls for all units together plus one Lucas-Kanade point per unit,
+so the sensor's cost is set by its frame rate; ``OpticalParams`` trades frame rate against pixel size.
 """
 
 from __future__ import annotations
@@ -38,24 +43,48 @@ MIN_COS_TILT = 0.5
 """A sensor tilted more than 60 degrees (unit on its side or upside down) sees no ground."""
 NOISE_BANK_FRAMES = 64
 """Pre-drawn noise frames. Drawing fresh Gaussian noise costs about 9 us per unit per frame, as much as the rest of
-the frame; each frame instead takes a block of consecutive noise frames from a random place in the bank. A unit gets
-the same noise in two consecutive frames with probability 1 / NOISE_BANK_FRAMES, when its frame shows no noise
-motion at all, which is harmless."""
-MAX_RESIDUAL = 0.5
+the frame; each frame instead takes a run of consecutive noise frames from a random place in the bank. A unit gets
+the same noise in two consecutive frames with probability about 1 / NOISE_BANK_FRAMES, when the noise adds no error
+to that frame's shift, which is harmless."""
+MAX_RESIDUAL = 0.4
 """Largest accepted Lucas-Kanade residual (mean absolute grey-level difference over the window) as a fraction of the
-window's own mean absolute contrast: a right match leaves only the noise (about 0.1-0.2), a wrong one about 1."""
+window's standard deviation. A wrong match leaves about 0.65 of it (under 0.4 in no test); a right one only the
+noise, about 0.65 noise standard deviations, so the limit is never set below one noise standard deviation."""
+
+
+def _pose_table(mount: np.ndarray) -> np.ndarray:
+    """(4, 4, 8) coefficients of the quadratic forms of a unit quaternion (x, y, z, w) that give, for a body with
+    rotation R: R22 * (the footprint matrix of a tilted downward view, see ``OpticalSensor.views``) as
+    [R11, -R10, -R01, R00], then R22, then R @ mount."""
+    x, y, z, w = range(4)
+    rotation = [  # R00, R01, ..., R22, each a sum of coefficient * q_i * q_j
+        {(w, w): 1, (x, x): 1, (y, y): -1, (z, z): -1}, {(x, y): 2, (w, z): -2}, {(x, z): 2, (w, y): 2},
+        {(x, y): 2, (w, z): 2}, {(w, w): 1, (x, x): -1, (y, y): 1, (z, z): -1}, {(y, z): 2, (w, x): -2},
+        {(x, z): 2, (w, y): -2}, {(y, z): 2, (w, x): 2}, {(w, w): 1, (x, x): -1, (y, y): -1, (z, z): 1},
+    ]
+    table = np.zeros((4, 4, 9))
+    for k, entry in enumerate(rotation):
+        for (i, j), coefficient in entry.items():
+            table[i, j, k] = coefficient
+    outputs = np.zeros((9, 8))  # which combination of R's entries (row-major) each output is
+    for column, (entry, sign) in enumerate([(4, 1), (3, -1), (1, -1), (0, 1), (8, 1)]):
+        outputs[entry, column] = sign
+    for row in range(3):
+        outputs[3 * row : 3 * row + 3, 5 + row] = mount
+    return table @ outputs
 
 
 class ShiftEstimator:
     """Sub-pixel image shift between two frames of each of N views stacked vertically in one 8-bit image.
 
     Pyramidal Lucas-Kanade on the centre point of each view, with a window of about half the patch: one OpenCV call
-    for all views (on 32 px patches about 0.02-0.04 px error per frame at 1 % noise, up to about 4 px shifts).
+    for all views (on 32 px patches at 1 % noise, about 0.03 px mean error per frame for shifts up to about 6 px).
     """
 
-    def __init__(self, n_views: int, patch_size: int):
+    def __init__(self, n_views: int, patch_size: int, noise_levels: float = 0.0):
+        """``noise_levels``: standard deviation of the frames' pixel noise in grey levels (0-255)."""
         centre = (patch_size - 1) / 2
-        self.patch_size = patch_size
+        self.n_views, self.patch_size, self.noise_levels = n_views, patch_size, noise_levels
         self.points = np.array([[centre, i * patch_size + centre] for i in range(n_views)], np.float32).reshape(-1, 1, 2)
         side = patch_size // 2 - 1 | 1  # odd, and leaves a quarter of the patch for the window to move into
         self.window = (side, side)
@@ -63,8 +92,8 @@ class ShiftEstimator:
         self.max_shift = patch_size / 4
         """px, largest shift accepted: beyond it the window leaves the patch and the estimate is unreliable."""
         self._criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 20, 0.003)
-        self._rows = np.arange(n_views)[:, None] * patch_size + np.arange(-(side // 2), side // 2 + 1) + int(centre)
-        self._cols = np.arange(-(side // 2), side // 2 + 1) + int(centre)
+        first = (patch_size - side) // 2
+        self._window_slice = slice(first, first + side)
 
     def __call__(self, previous: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(N, 2) px shift (column, row) of the image content from ``previous`` to ``current``, and (N,) whether
@@ -72,15 +101,15 @@ class ShiftEstimator:
         moved, status, residual = cv2.calcOpticalFlowPyrLK(
             previous, current, self.points, None, winSize=self.window, maxLevel=self.levels, criteria=self._criteria
         )
-        shifts = (moved - self.points).reshape(-1, 2)
-        window = previous[self._rows][:, :, self._cols].astype(np.float32)
-        contrast = np.abs(window - window.mean(axis=(1, 2), keepdims=True)).mean(axis=(1, 2))
+        shifts = (moved - self.points)[:, 0]
+        window = self._window_slice
+        contrast = previous.reshape(self.n_views, self.patch_size, self.patch_size)[:, window, window].std(axis=(1, 2))
         tracked = (
-            (status.ravel() == 1)
+            (status[:, 0] == 1)
             & (np.abs(shifts).max(axis=1) <= self.max_shift)
-            & (residual.ravel() <= MAX_RESIDUAL * contrast)
+            & (residual[:, 0] <= np.maximum(MAX_RESIDUAL * contrast, self.noise_levels))
         )
-        return np.where(tracked[:, None], shifts, 0.0), tracked
+        return shifts * tracked[:, None], tracked
 
 
 class OpticalSensor(Sensor):
@@ -101,15 +130,15 @@ class OpticalSensor(Sensor):
         _check(params, source)
         self.params, self.ground, self.n_units = params, ground, n_units
         self.sample_period = 1.0 / params.frame_rate
-        self._mount = np.array([params.mount_x, params.mount_y, -params.mount_depth])
-        self._estimator = ShiftEstimator(n_units, params.patch_size)
+        self._pose_table = _pose_table(np.array([params.mount_x, params.mount_y, -params.mount_depth]))
+        self._estimator = ShiftEstimator(n_units, params.patch_size, 255 * params.noise)
         self._rng = rng
         size = params.patch_size
         bank = rng.standard_normal(((NOISE_BANK_FRAMES + n_units - 1) * size, size), dtype=np.float32)
         self._noise_bank = bank * np.float32(255 * params.noise)
         self._frame: np.ndarray | None = None
         self._on_ground = np.zeros(n_units, dtype=bool)
-        self._displacement = np.zeros(n_units)
+        self._columns_moved = np.zeros(n_units)  # px, summed image shift along the forward axis, sign of the unit
         self.lost_frames = np.zeros(n_units, dtype=int)
         """frames since the last reset in which a unit's sensor was on the ground but could not track the image."""
 
@@ -120,28 +149,28 @@ class OpticalSensor(Sensor):
                 f"expected poses of {self.n_units} units, (N, 3) and (N, 4), got {positions.shape} and {orientations.shape}"
             )
         self._frame, self._on_ground = self.frames(positions, orientations)
-        self._displacement = np.zeros(self.n_units)
+        self._columns_moved = np.zeros(self.n_units)
         self.lost_frames = np.zeros(self.n_units, dtype=int)
 
     def sample(self, positions: np.ndarray, orientations: np.ndarray) -> None:
         if self._frame is None:
             raise RuntimeError("OpticalSensor.sample before reset: reset gives the first frame")
-        frame, on_ground = self.frames(np.asarray(positions, dtype=float), np.asarray(orientations, dtype=float))
+        frame, on_ground = self.frames(positions, orientations)
         shifts, tracked = self._estimator(self._frame, frame)
         valid = on_ground & self._on_ground
-        self._displacement -= np.where(valid, shifts[:, 0], 0.0) * self.params.pixel_size
-        self.lost_frames += valid & ~tracked
+        self._columns_moved -= shifts[:, 0] * valid  # the image moves opposite to the unit
+        self.lost_frames += valid > tracked
         self._frame, self._on_ground = frame, on_ground
 
     def displacement(self) -> np.ndarray:
-        return self._displacement.copy()
+        return self._columns_moved * self.params.pixel_size
 
     def frames(self, positions: np.ndarray, orientations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """What every sensor sees at these poses: the 8-bit frames stacked vertically, (N * patch_size, patch_size),
         and (N,) whether each sensor is on the ground (low enough and facing it)."""
-        centres, footprints, on_ground = self.views(positions, orientations)
+        affines, on_ground = self.views(positions, orientations)
         size = self.params.patch_size
-        images = self.ground.patches(centres, footprints, size)
+        images = self.ground.patches(affines, size)
         if self.params.blur > 0:
             for image in images:
                 cv2.GaussianBlur(image, (0, 0), self.params.blur, dst=image)
@@ -152,34 +181,25 @@ class OpticalSensor(Sensor):
         noise = self._noise_bank[start : start + self.n_units * size]
         return cv2.addWeighted(images, 255, noise, 1, 0, dtype=cv2.CV_8U), on_ground
 
-    def views(self, positions: np.ndarray, orientations: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Where each sensor looks: (N, 2) ground point at the image centre (m), (N, 2, 2) ground footprint of one
-        image pixel along the image columns and rows (m), and (N,) whether it is on the ground."""
-        axes = rotation_matrices(orientations)  # columns: the unit's forward, left and up axes in the world
-        mount = positions + axes @ self._mount
-        up = axes[:, :, 2]
-        facing = up[:, 2] > MIN_COS_TILT
-        up_z = np.where(facing, up[:, 2], 1.0)  # keeps the projection finite for sensors that see no ground
-        # Project along the optical axis onto the ground (z = 0): an axis a lands on a - (a_z / up_z) up.
-        centres = mount[:, :2] - (mount[:, 2] / up_z)[:, None] * up[:, :2]
-        footprints = axes[:, :2, :2] - up[:, :2, None] * (axes[:, 2, :2] / up_z[:, None])[:, None, :]
-        on_ground = facing & (mount[:, 2] <= self.params.liftoff_height)
-        return centres, footprints * self.params.pixel_size, on_ground
+    def views(self, positions: np.ndarray, orientations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Where each sensor looks: (N, 2, 3) affine maps from image pixel offsets (u, v, 1) to ground points (m),
+        as ``GroundTexture.patches`` takes them, and (N,) whether each sensor is on the ground.
 
-
-def rotation_matrices(orientations: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) rotation matrices from (N, 4) quaternions (x, y, z, w); column j is the body's axis j in the world."""
-    q = np.asarray(orientations, dtype=float)
-    q = q / np.linalg.norm(q, axis=1, keepdims=True)
-    x, y, z, w = q.T
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=1),
-            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=1),
-            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=1),
-        ],
-        axis=1,
-    )
+        Projected along the optical axis (the unit's up axis, column 2 of its rotation R), the image axes land on
+        the ground as R's first two columns minus (their z / R22) times the third. That 2 x 2 footprint equals
+        [[R11, -R10], [-R01, R00]] / R22 (a rotation matrix equals its own cofactor matrix), so one einsum of the
+        quaternions gives footprint, tilt and mount point for every unit at once.
+        """
+        pose = np.einsum("ni,nj,ijk->nk", orientations, orientations, self._pose_table)
+        up_z = pose[:, 4]
+        mount = positions + pose[:, 5:]
+        affines = np.empty((self.n_units, 2, 3))
+        # up_z is clamped for sensors that see no ground, which keeps their (unused) views finite.
+        scale = self.params.pixel_size / np.maximum(up_z, MIN_COS_TILT)
+        affines[:, :, :2] = (pose[:, :4] * scale[:, None]).reshape(-1, 2, 2)
+        affines[:, :, 2] = mount[:, :2]
+        on_ground = (up_z > MIN_COS_TILT) & (mount[:, 2] <= self.params.liftoff_height)
+        return affines, on_ground
 
 
 def _check(params: OpticalParams, source: str) -> None:
@@ -195,7 +215,9 @@ def _check(params: OpticalParams, source: str) -> None:
     number("blur", 0, inclusive=True, unit="px")
     number("liftoff_height", 0, inclusive=False, unit="m")
     for key in ("mount_x", "mount_y", "mount_depth"):
-        number(key, -math.inf, inclusive=False, unit="m")
+        value = getattr(params, key)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(source, key, "a finite number (m)", value)
     size = params.patch_size
     if isinstance(size, bool) or not isinstance(size, int) or not MIN_PATCH <= size <= MAX_PATCH:
         raise ConfigError(source, "patch_size", f"an integer number of pixels in [{MIN_PATCH}, {MAX_PATCH}]", size)
