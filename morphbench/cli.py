@@ -34,9 +34,16 @@ def _number(low: float, high: float = math.inf, *, low_inclusive: bool = False, 
     return parse
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a bad option is one line (and exit 2) rather than the usage block."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="morphbench", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = _Parser(prog="morphbench", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     run = sub.add_parser("run", help="learn a gait on a shape and write records, summary and a learning curve")
     run.add_argument("shape", help="morphology file, e.g. shapes/chain-3.toml")

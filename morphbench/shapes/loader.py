@@ -44,7 +44,7 @@ def load_shape(path: str | Path) -> Shape:
     """Load and validate one morphology file."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8")  # TOML is UTF-8 whatever the locale
     except FileNotFoundError:
         raise ConfigError(path, "(file)", "an existing morphology file (.toml)") from None
     except (OSError, UnicodeDecodeError) as exc:
