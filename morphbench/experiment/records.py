@@ -14,7 +14,6 @@ holds a half-written file.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 from pathlib import Path
@@ -88,7 +87,7 @@ class RunRecords:
         learning = steps[steps.step > 0]
         n_final = max(1, int(round(len(learning) * FINAL_FRACTION)))
         return {
-            "config": config_dict(self.config),
+            "config": self.config.to_dict(),
             "seed": self.config.seed,
             "n_units": self.config.shape.n_units,
             "steps": int(learning.step.max()) if len(learning) else 0,
@@ -108,20 +107,6 @@ class RunRecords:
         text = json.dumps(self.summary(), indent=2, sort_keys=True)
         atomic_write(out / "summary.json", lambda tmp: Path(tmp).write_text(text + "\n"))
         return out
-
-
-def config_dict(config: Any) -> dict[str, Any]:
-    """A run configuration as JSON-ready data: the shape by its source file and name, parameters by field."""
-    data = {}
-    for f in dataclasses.fields(config):
-        value = getattr(config, f.name)
-        if f.name == "shape":
-            data["shape"] = {"name": value.name, "source": value.source, "n_units": value.n_units}
-        elif dataclasses.is_dataclass(value):
-            data[f.name] = dataclasses.asdict(value)
-        else:
-            data[f.name] = value
-    return data
 
 
 def atomic_write(path: Path, write) -> None:

@@ -5,6 +5,7 @@ The CLI, the scans and the tests all go through ``run`` (and ``measure`` for fix
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -17,7 +18,7 @@ from morphbench.learning import load_learner_class, make_learners
 from morphbench.params import FAST_PHYSICS, SENSOR_KINDS, LearnerParams, PhysicsParams, SensorParams
 from morphbench.physics import World
 from morphbench.sensing import IdealSensor, Sensor
-from morphbench.shapes import Shape
+from morphbench.shapes import Shape, load_shape
 
 NOISE_STREAM = 1  # SeedSequence([seed, NOISE_STREAM, unit]) is unit's measurement-noise stream; 0 is its learner's
 
@@ -36,6 +37,30 @@ class RunConfig:
     """learning steps after the initial measurement (step 0)."""
     seed: int = 0
 
+    def to_dict(self) -> dict:
+        """JSON-ready: the shape by its file, every parameter by field (what summary.json stores)."""
+        data = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        data["shape"] = {"name": self.shape.name, "source": self.shape.source, "n_units": self.shape.n_units}
+        for key in ("learner_params", "sensor", "physics"):
+            data[key] = dataclasses.asdict(data[key])
+        return data
+
+    @classmethod
+    def from_dict(cls, data: dict, source: str = "summary.json") -> RunConfig:
+        """The config ``to_dict`` wrote, its shape reloaded from its file (to replay a finished run)."""
+        try:
+            return cls(
+                shape=load_shape(data["shape"]["source"]),
+                learner=data["learner"],
+                learner_params=LearnerParams(**data["learner_params"]),
+                sensor=SensorParams(**data["sensor"]),
+                physics=PhysicsParams(**data["physics"]),
+                steps=data["steps"],
+                seed=data["seed"],
+            )
+        except (KeyError, TypeError) as exc:
+            raise ConfigError(source, "config", f"a run configuration written by morphbench ({exc})") from None
+
 
 def make_sensor(params: SensorParams, n_units: int) -> Sensor:
     """The sensor bank a run uses."""
@@ -44,30 +69,38 @@ def make_sensor(params: SensorParams, n_units: int) -> Sensor:
     raise ConfigError("--sensor", "sensor", f"one of {', '.join(SENSOR_KINDS)}", params.kind)
 
 
-def measure(world: World, sensors: list[Sensor], n_cycles: int) -> list[np.ndarray]:
-    """Advance ``n_cycles`` actuation cycles at the world's current phases; each sensor bank's displacement (m)."""
+def measure(world: World, sensors: list[Sensor], n_cycles: int, on_tick: Callable[[World], None] | None = None
+            ) -> list[np.ndarray]:
+    """Advance ``n_cycles`` actuation cycles at the world's current phases; each sensor bank's displacement (m).
+
+    ``on_tick(world)``, if given, is called after every physics tick (for observers such as a video recorder)."""
     n_ticks = world.ticks_in(n_cycles * world.shape.actuator.cycle_time)
     poses = world.unit_poses()
     for sensor in sensors:
         sensor.reset(*poses)
     periods = [max(1, world.ticks_in(sensor.sample_period)) for sensor in sensors]
 
-    def on_tick(k: int) -> None:
+    def sample_due(k: int) -> None:
         due = [s for s, every in zip(sensors, periods) if (k + 1) % every == 0 and k + 1 < n_ticks]
         if due:
             tick_poses = world.unit_poses()
             for sensor in due:
                 sensor.sample(*tick_poses)
+        if on_tick is not None:
+            on_tick(world)
 
-    world.advance(n_ticks, on_tick if min(periods) < n_ticks else None)
+    world.advance(n_ticks, sample_due if min(periods) < n_ticks or on_tick is not None else None)
     poses = world.unit_poses()
     for sensor in sensors:
         sensor.sample(*poses)
     return [sensor.displacement() for sensor in sensors]
 
 
-def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = None) -> RunRecords:
-    """Learn for ``config.steps`` learning steps; ``progress(step, records)`` is called after each step."""
+def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = None,
+        on_tick: Callable[[World], None] | None = None) -> RunRecords:
+    """Learn for ``config.steps`` learning steps; ``progress(step, records)`` is called after each step and
+    ``on_tick(world)`` after every physics tick of the warm-up and the steps (observers only: it must not change the
+    world)."""
     shape, lp = config.shape, config.learner_params
     learners = make_learners(load_learner_class(config.learner), lp, config.seed, shape.n_units)
     noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u])) for u in range(shape.n_units)]
@@ -78,12 +111,13 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
     cycle = shape.actuator.cycle_time
     with World(shape, config.physics) as world:
         world.set_phases([learner.phase for learner in learners])
-        world.advance(world.ticks_in(lp.warmup_cycles * cycle))
+        observe = (lambda k: on_tick(world)) if on_tick is not None else None
+        world.advance(world.ticks_in(lp.warmup_cycles * cycle), observe)
         for step in range(config.steps + 1):
             tried = np.array([learner.propose() for learner in learners], dtype=float)
             world.set_phases(tried)
-            world.advance(world.ticks_in(lp.discard_cycles * cycle))
-            sensed, true = measure(world, [sensor, truth], lp.cycles_per_step)
+            world.advance(world.ticks_in(lp.discard_cycles * cycle), observe)
+            sensed, true = measure(world, [sensor, truth], lp.cycles_per_step, on_tick)
             to_mm_per_cycle = 1000.0 / lp.cycles_per_step
             noise = np.array([rng.normal(0.0, config.sensor.noise) if config.sensor.noise else 0.0 for rng in noise_rngs])
             u_measured = sensed * to_mm_per_cycle + noise

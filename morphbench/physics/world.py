@@ -98,9 +98,11 @@ class World:
         return max(0, round(duration / self.tick))
 
     def advance(self, n_ticks: int, on_tick=None) -> None:
-        """Run ``n_ticks`` control ticks. ``on_tick(k)`` is called after tick k (0-based) if given."""
+        """Run ``n_ticks`` physics ticks. ``on_tick(k)`` is called after tick k (0-based) if given, with ``time`` and
+        ``pressure`` already those at the end of that tick."""
         if n_ticks <= 0:
             return
+        start = self.time
         trajectory = pressure_trajectory(
             self.pressure, self.phases[self.link_units], self.time, self.tick, n_ticks, self.shape.actuator
         )
@@ -123,9 +125,9 @@ class World:
                 push(bodies[rear], -1, (-force * dx, -force * dy, -force * dz), positions[rear], frame, physicsClientId=c)
             step(physicsClientId=c)
             if on_tick is not None:
+                self.pressure, self.time = trajectory[k], start + (k + 1) * dt
                 on_tick(k)
-        self.pressure = trajectory[-1]
-        self.time += n_ticks * self.tick
+        self.pressure, self.time = trajectory[-1], start + n_ticks * dt
 
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
         """Positions (N, 3, m) and orientations (N, 4 quaternions x, y, z, w) of the given bodies (default all)."""
