@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from morphbench.errors import ConfigError
-from morphbench.params import PHYSICS_PRESETS, SENSOR_KINDS, LearnerParams, SensorParams
+from morphbench.params import PHYSICS_PRESETS, SENSOR_KINDS, EnvironmentParams, LearnerParams, SensorParams
 
 EXIT_BAD_INPUT = 2
 
@@ -118,7 +118,8 @@ def _cmd_run(args) -> int:
         learner=args.learner,
         learner_params=LearnerParams(temperature=args.temperature, step_size=args.step_size,
                                      cycles_per_step=args.cycles_per_step),
-        sensor=SensorParams(kind=args.sensor, noise=args.noise),
+        sensor=SensorParams(kind=args.sensor),
+        environment=EnvironmentParams(noise=args.noise),
         physics=PHYSICS_PRESETS[args.physics],
         steps=args.steps,
         seed=args.seed,

@@ -11,7 +11,7 @@ see docs/calibration.md for the measured curve and how it moves with each parame
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -125,8 +125,6 @@ class SensorParams:
 
     kind: str = "ideal"
     """'ideal': the unit's true displacement along its own forward axis."""
-    noise: float = 0.0
-    """mm/cycle, standard deviation of Gaussian noise added to each measured velocity."""
     sample_period: float = 0.1
     """s, how often the sensor reads the unit's pose and integrates its forward displacement."""
 
@@ -135,21 +133,59 @@ SENSOR_KINDS = ("ideal",)
 
 
 @dataclass(frozen=True, kw_only=True)
+class FrictionFieldParams:
+    """Ground friction that varies with position: mu(x, y) = mu0 (1 + amplitude f(x, y)), f a smooth periodic random
+    field with values in [-1, 1], the same for every body (mu0 is the body's own friction)."""
+
+    amplitude: float = 0.0
+    """a, in [0, 1): 0 is a uniform ground; the spec suggests 0.2-0.4."""
+    correlation_length: float = 0.06
+    """m, shortest wavelength in the field (about one unit)."""
+    period: float = 2.0
+    """m, the field repeats with this period along x (and y): the length of the paper's circular track, unrolled."""
+    two_d: bool = False
+    """false: the field varies along x only (a track); true: along x and y (a plane)."""
+    seed: int = 1
+    """the same seed gives the same field."""
+
+
+DAMAGE_MODES = ("no-inflate", "stuck", "dead")
+"""no-inflate: the needle is gone, the bellows cannot extend but pump, vibration and learner go on; stuck: the
+bellows keeps its length; dead: the unit stops everything (pump, vibration, learner)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class EnvironmentParams:
+    """The world the robot runs in; events can change some of it during a run (morphbench.experiment.events)."""
+
+    friction_scale: float = 1.0
+    """multiplies every body's friction (a friction drop is an event that changes it)."""
+    vibration: float = 1.0
+    """factor on an active unit's friction while its own pump runs (the pump shakes the unit); 1 is no vibration,
+    the spec suggests 0.8. The dummy never vibrates."""
+    noise: float = 0.0
+    """mm/cycle, standard deviation of Gaussian noise added to each measured velocity, on top of the sensor's own."""
+    friction_field: FrictionFieldParams = field(default_factory=FrictionFieldParams)
+
+
+@dataclass(frozen=True, kw_only=True)
 class GroundParams:
-    """The textured ground that optical sensors look at: one tile, procedural or from an image file, repeated
-    over the whole plane (morphbench.sensing.ground)."""
+    """The textured ground that optical sensors look at: one tile, procedural or from an image file, centred on the
+    world origin and repeated over the whole plane (morphbench.sensing.ground)."""
 
     image: str = ""
     """path of an image file used as the tile, read in greyscale; '' makes a procedural tile from the fields below."""
     seed: int = 1
     """seed of the procedural tile: the same seed gives the same ground."""
-    grain: float = 0.002
-    """m, feature size of the procedural tile: standard deviation of the Gaussian that smooths its white noise."""
+    grain: float = 0.0025
+    """m, feature size of the procedural tile: standard deviation of the Gaussian that smooths its white noise
+    (2 pixels of the default optical sensor, which Lucas-Kanade tracks best)."""
     contrast: float = 0.5
     """in (0, 1], of the procedural tile: its grey levels have a standard deviation of contrast / 6 of the full range
     around mid-grey, so +-3 standard deviations span this fraction of black to white."""
-    resolution: float = 0.001
-    """m, ground size of one tile pixel, for a procedural tile and an image file alike."""
+    resolution: float = 0.00125
+    """m, ground size of one tile pixel, for a procedural tile and an image file alike (the default is the optical
+    sensor's pixel size)."""
     length: float = 2.0
     """m, procedural tile's extent along the world x axis (an image's extent is its size times the resolution)."""
     width: float = 0.5
@@ -161,16 +197,18 @@ class OpticalParams:
     """Each unit's optical motion sensor (morphbench.sensing.optical): a small camera on the unit's underside that
     looks straight down at the ground, like an optical mouse, and tracks the image's motion between frames.
 
-    Scaled to what the simulation affords: a real mouse sensor takes thousands of frames a second of about 0.05 mm
-    pixels; here fewer, coarser frames keep the sensor's cost small while a unit at its top speed (about 30 mm/s)
-    still moves only a few pixels between frames.
+    Scaled to what the simulation affords: a real mouse sensor takes thousands of frames a second of pixels of about
+    0.05 mm. Here 10 frames a second of 1.25 mm pixels keep the sensor's cost near a tenth of the physics' while the
+    fastest units (up to about 8 mm per 0.1 s in long chains) still move only a few pixels between frames, the regime
+    a mouse sensor works in. Finer pixels lower the error in mm but need a proportionally higher frame rate (units
+    would move more pixels per frame), and the cost grows with the frame rate.
     """
 
     frame_rate: float = 10.0
     """Hz, frames per second: the sensor's sample rate."""
     patch_size: int = 32
     """px, side of the square image."""
-    pixel_size: float = 0.001
+    pixel_size: float = 0.00125
     """m, ground size of one image pixel when the sensor looks straight down (its nominal resolution)."""
     noise: float = 0.01
     """standard deviation of the Gaussian noise added to every pixel, as a fraction of the black-to-white range."""

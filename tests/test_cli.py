@@ -22,9 +22,10 @@ from morphbench.params import LearnerParams
 SHAPES = Path(__file__).resolve().parents[1] / "shapes"
 CHAIN2 = str(SHAPES / "chain-2.toml")
 CHAIN3 = str(SHAPES / "chain-3.toml")
-RUN_FILES = {"units.parquet", "steps.parquet", "summary.json", "learning_curve.png"}
-UNIT_COLUMNS = ["step", "unit", "phase_tried", "phase_kept", "u_measured", "u_true", "accepted"]  # records.py docs
-STEP_COLUMNS = ["step", "time_s", "ubar", "ubar_true", "acceptance"]
+RUN_FILES = {"units.parquet", "steps.parquet", "pieces.parquet", "summary.json", "learning_curve.png"}
+UNIT_COLUMNS = ["step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true",
+                "accepted"]  # records.py docs
+STEP_COLUMNS = ["step", "time_s", "ubar", "ubar_true", "acceptance", "event"]
 
 
 def run_cli(capsys, *argv: str) -> tuple[int, str, str]:

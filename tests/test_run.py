@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from morphbench.experiment import RunConfig, run
-from morphbench.params import LearnerParams, SensorParams
+from morphbench.params import EnvironmentParams, LearnerParams
 from morphbench.shapes import load_shape
 
 CHAIN_2 = load_shape("shapes/chain-2.toml")
@@ -40,7 +40,7 @@ class SpyLearner:
 def test_each_learner_gets_only_its_own_units_measurement():
     SpyLearner.instances = []
     records = run(RunConfig(shape=CHAIN_3, learner=f"{__name__}:SpyLearner", steps=5, seed=1,
-                            sensor=SensorParams(noise=0.5)))
+                            environment=EnvironmentParams(noise=0.5)))
     units = records.units()
     assert len(SpyLearner.instances) == 3
     for k, learner in enumerate(SpyLearner.instances):
@@ -51,7 +51,7 @@ def test_each_learner_gets_only_its_own_units_measurement():
 
 
 def test_measurement_noise_has_the_requested_spread_and_its_own_stream_per_unit():
-    records = run(RunConfig(shape=CHAIN_3, steps=40, seed=3, sensor=SensorParams(noise=1.0)))
+    records = run(RunConfig(shape=CHAIN_3, steps=40, seed=3, environment=EnvironmentParams(noise=1.0)))
     units = records.units()
     error = (units.u_measured - units.u_true).to_numpy().reshape(-1, 3)
     assert error.std() == pytest.approx(1.0, rel=0.2)

@@ -2,11 +2,17 @@
 
 A run directory holds:
 - ``units.parquet``: one row per learning step and unit: ``step`` (0 is the initial measurement), ``unit`` (1-based,
-  unit 1 at the front), ``phase_tried``, ``phase_kept`` (cycles, 0..1), ``u_measured`` (mm/cycle, what the unit's
-  sensor reported, noise included), ``u_true`` (mm/cycle, the unit's true displacement along its forward axis per
-  cycle), ``accepted`` (whether the learner kept the tried phase).
+  unit 1 starts at the front; a unit keeps its number when a shuffle moves it), ``position`` (1-based, where it sits
+  now, 1 = front), ``piece`` (1-based, which piece of a cut assembly it belongs to; 1 while uncut), ``phase_tried``,
+  ``phase_kept`` (cycles, 0..1), ``u_measured`` (mm/cycle, what the unit's sensor reported, noise included; NaN for a
+  dead unit), ``u_true`` (mm/cycle, the unit's true displacement along its forward axis per cycle), ``accepted``
+  (whether the learner kept the tried phase).
 - ``steps.parquet``: one row per learning step: ``step``, ``time_s`` (simulated time at the end of the step),
-  ``ubar`` (mean ``u_measured`` over active units), ``ubar_true`` and ``acceptance`` (fraction of units that accepted).
+  ``ubar`` (mean ``u_measured`` over the units that are not dead), ``ubar_true`` (the same units' true velocities),
+  ``acceptance`` (fraction of those units that accepted) and ``event`` (the events applied at the start of the step,
+  '' if none).
+- ``pieces.parquet``: one row per learning step and piece: ``step``, ``piece``, ``n_units``, ``ubar``, ``ubar_true``:
+  after a cut, each piece is a robot of its own and is scored on its own.
 - ``summary.json``: the full configuration, seed, final Ubar, mean acceptance, sensor error and wall time.
 Read them with ``pandas.read_parquet``. Every file is written to a temporary name and renamed, so a directory never
 holds a half-written file.
@@ -22,8 +28,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-UNIT_COLUMNS = ("step", "unit", "phase_tried", "phase_kept", "u_measured", "u_true", "accepted")
-STEP_COLUMNS = ("step", "time_s", "ubar", "ubar_true", "acceptance")
+UNIT_COLUMNS = ("step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true", "accepted")
+STEP_COLUMNS = ("step", "time_s", "ubar", "ubar_true", "acceptance", "event")
+PIECE_COLUMNS = ("step", "piece", "n_units", "ubar", "ubar_true")
 FINAL_FRACTION = 0.1  # final Ubar is the mean over the last 10% of learning steps (at least one)
 
 
@@ -32,54 +39,62 @@ class RunRecords:
 
     def __init__(self, config: Any):
         self.config = config
-        self._rows: list[tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+        self._units: dict[str, list[np.ndarray]] = {name: [] for name in UNIT_COLUMNS}
+        self._steps: dict[str, list] = {"step": [], "time_s": [], "event": []}
         self.wall_time: float | None = None
 
-    def add_step(self, step, time_s, tried, kept, u_measured, u_true, accepted) -> None:
-        self._rows.append((step, time_s, tried, kept, u_measured, u_true, accepted))
+    def add_step(self, step, time_s, tried, kept, u_measured, u_true, accepted, position, piece, event="") -> None:
+        """One learning step; the arrays are per unit, in unit order."""
+        n = len(tried)
+        for name, value in (("step", np.full(n, step)), ("unit", np.arange(1, n + 1)), ("position", position),
+                            ("piece", piece), ("phase_tried", tried), ("phase_kept", kept),
+                            ("u_measured", u_measured), ("u_true", u_true), ("accepted", accepted)):
+            self._units[name].append(np.asarray(value))
+        self._steps["step"].append(step)
+        self._steps["time_s"].append(time_s)
+        self._steps["event"].append(event)
 
     def finish(self, wall_time: float) -> None:
         self.wall_time = wall_time
 
     @property
     def n_steps(self) -> int:
-        return len(self._rows)
+        return len(self._steps["step"])
 
     @property
     def last_ubar(self) -> float:
-        return float(np.mean(self._rows[-1][4]))
+        return float(np.nanmean(self._units["u_measured"][-1]))
 
     def units(self) -> pd.DataFrame:
         """Per step and unit (see the module docstring)."""
-        if not self._rows:
+        if not self.n_steps:
             return pd.DataFrame(columns=UNIT_COLUMNS)
-        step, _, tried, kept, u_measured, u_true, accepted = zip(*self._rows)
-        n = len(tried[0])
-        return pd.DataFrame(
-            {
-                "step": np.repeat(np.asarray(step, dtype=np.int64), n),
-                "unit": np.tile(np.arange(1, n + 1, dtype=np.int64), len(step)),
-                "phase_tried": np.concatenate(tried),
-                "phase_kept": np.concatenate(kept),
-                "u_measured": np.concatenate(u_measured),
-                "u_true": np.concatenate(u_true),
-                "accepted": np.concatenate(accepted).astype(bool),
-            },
-            columns=UNIT_COLUMNS,
-        )
+        table = pd.DataFrame({name: np.concatenate(values) for name, values in self._units.items()}, columns=UNIT_COLUMNS)
+        return table.astype({"step": "int64", "unit": "int64", "position": "int64", "piece": "int64", "accepted": bool})
 
     def steps(self) -> pd.DataFrame:
-        """Per step (see the module docstring)."""
-        return pd.DataFrame(
-            {
-                "step": np.array([r[0] for r in self._rows], dtype=np.int64),
-                "time_s": np.array([r[1] for r in self._rows], dtype=float),
-                "ubar": np.array([np.mean(r[4]) for r in self._rows], dtype=float),
-                "ubar_true": np.array([np.mean(r[5]) for r in self._rows], dtype=float),
-                "acceptance": np.array([np.mean(r[6]) for r in self._rows], dtype=float),
-            },
-            columns=STEP_COLUMNS,
-        )
+        """Per step (see the module docstring). Dead units (NaN measurement) are left out of the means."""
+        scored = self._scored(self.units(), ["step"])
+        table = pd.DataFrame({"step": np.asarray(self._steps["step"], dtype=np.int64),
+                              "time_s": np.asarray(self._steps["time_s"], dtype=float)})
+        table = table.merge(scored, on="step", how="left")
+        table["event"] = self._steps["event"]
+        return table[list(STEP_COLUMNS)]
+
+    def pieces(self) -> pd.DataFrame:
+        """Per step and piece (see the module docstring)."""
+        return self._scored(self.units(), ["step", "piece"])[list(PIECE_COLUMNS)]
+
+    @staticmethod
+    def _scored(units: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
+        living = units[units.u_measured.notna()]
+        grouped = living.groupby(keys, sort=True)
+        return pd.DataFrame({
+            "n_units": grouped.size(),
+            "ubar": grouped.u_measured.mean(),
+            "ubar_true": grouped.u_true.mean(),
+            "acceptance": grouped.accepted.mean().astype(float),
+        }).reset_index()
 
     def summary(self) -> dict[str, Any]:
         """Configuration, seed and the run's headline figures."""
@@ -94,16 +109,26 @@ class RunRecords:
             "final_ubar": float(learning.ubar.tail(n_final).mean()) if len(learning) else float("nan"),
             "final_ubar_true": float(learning.ubar_true.tail(n_final).mean()) if len(learning) else float("nan"),
             "mean_acceptance": float(learning.acceptance.mean()) if len(learning) else float("nan"),
+            "final_ubar_by_piece": self._final_by_piece(n_final),
+            "events": [event for event in steps.event if event],
             "sensor_error": float((units.u_measured - units.u_true).abs().mean()),
             "wall_time_s": self.wall_time,
         }
 
+    def _final_by_piece(self, n_final: int) -> dict[str, float]:
+        """Final true Ubar of each piece of the last step's assembly (one entry while uncut)."""
+        pieces = self.pieces()
+        last_steps = sorted(pieces.step.unique())[-n_final:]
+        final = pieces[pieces.step.isin(last_steps)].groupby("piece").ubar_true.mean()
+        return {str(piece): float(value) for piece, value in final.items()}
+
     def write(self, out_dir: str | Path) -> Path:
-        """Write ``units.parquet``, ``steps.parquet`` and ``summary.json`` into ``out_dir`` (created if needed)."""
+        """Write ``units.parquet``, ``steps.parquet``, ``pieces.parquet`` and ``summary.json`` into ``out_dir``."""
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         atomic_write(out / "units.parquet", lambda tmp: self.units().to_parquet(tmp, index=False))
         atomic_write(out / "steps.parquet", lambda tmp: self.steps().to_parquet(tmp, index=False))
+        atomic_write(out / "pieces.parquet", lambda tmp: self.pieces().to_parquet(tmp, index=False))
         text = json.dumps(self.summary(), indent=2, sort_keys=True)
         atomic_write(out / "summary.json", lambda tmp: Path(tmp).write_text(text + "\n"))
         return out

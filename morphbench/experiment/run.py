@@ -15,7 +15,16 @@ import numpy as np
 from morphbench.errors import ConfigError
 from morphbench.experiment.records import RunRecords
 from morphbench.learning import load_learner_class, make_learners
-from morphbench.params import FAST_PHYSICS, SENSOR_KINDS, LearnerParams, PhysicsParams, SensorParams
+from morphbench.experiment.events import Event
+from morphbench.params import (
+    FAST_PHYSICS,
+    SENSOR_KINDS,
+    EnvironmentParams,
+    FrictionFieldParams,
+    LearnerParams,
+    PhysicsParams,
+    SensorParams,
+)
 from morphbench.physics import World
 from morphbench.sensing import IdealSensor, Sensor
 from morphbench.shapes import Shape, load_shape
@@ -32,6 +41,9 @@ class RunConfig:
     """'thermal', 'flaky' or a plug-in 'package.module:Class'."""
     learner_params: LearnerParams = field(default_factory=LearnerParams)
     sensor: SensorParams = field(default_factory=SensorParams)
+    environment: EnvironmentParams = field(default_factory=EnvironmentParams)
+    events: tuple[Event, ...] = ()
+    """applied at the start of their learning step (morphbench.experiment.events)."""
     physics: PhysicsParams = FAST_PHYSICS
     steps: int = 100
     """learning steps after the initial measurement (step 0)."""
@@ -41,8 +53,9 @@ class RunConfig:
         """JSON-ready: the shape by its file, every parameter by field (what summary.json stores)."""
         data = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         data["shape"] = {"name": self.shape.name, "source": self.shape.source, "n_units": self.shape.n_units}
-        for key in ("learner_params", "sensor", "physics"):
+        for key in ("learner_params", "sensor", "environment", "physics"):
             data[key] = dataclasses.asdict(data[key])
+        data["events"] = [{k: v for k, v in dataclasses.asdict(e).items() if v is not None} for e in self.events]
         return data
 
     @classmethod
@@ -54,6 +67,9 @@ class RunConfig:
                 learner=data["learner"],
                 learner_params=LearnerParams(**data["learner_params"]),
                 sensor=SensorParams(**data["sensor"]),
+                environment=EnvironmentParams(**{**data["environment"], "friction_field": FrictionFieldParams(
+                    **data["environment"]["friction_field"])}),
+                events=tuple(Event(**e) for e in data["events"]),
                 physics=PhysicsParams(**data["physics"]),
                 steps=data["steps"],
                 seed=data["seed"],
@@ -100,31 +116,60 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
         on_tick: Callable[[World], None] | None = None) -> RunRecords:
     """Learn for ``config.steps`` learning steps; ``progress(step, records)`` is called after each step and
     ``on_tick(world)`` after every physics tick of the warm-up and the steps (observers only: it must not change the
-    world)."""
-    shape, lp = config.shape, config.learner_params
-    learners = make_learners(load_learner_class(config.learner), lp, config.seed, shape.n_units)
-    noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u])) for u in range(shape.n_units)]
-    sensor = make_sensor(config.sensor, shape.n_units)
-    truth = IdealSensor(shape.n_units, sample_period=config.sensor.sample_period)
+    world).
+
+    Units keep their identity (learner, memory, noise stream, damage) when a shuffle moves them: ``order[p]`` is the
+    unit at position p (0 = front), and the world sees phases by position.
+    """
+    shape, lp, n = config.shape, config.learner_params, config.shape.n_units
+    learners = make_learners(load_learner_class(config.learner), lp, config.seed, n)
+    noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u])) for u in range(n)]
+    sensor = make_sensor(config.sensor, n)
+    truth = IdealSensor(n, sample_period=config.sensor.sample_period)
     records = RunRecords(config)
+    order, damage, noise = np.arange(n), [""] * n, config.environment.noise
+    events = {}
+    for event in config.events:
+        events.setdefault(event.step, []).append(event)
     started = time.perf_counter()
-    cycle = shape.actuator.cycle_time
-    with World(shape, config.physics) as world:
-        world.set_phases([learner.phase for learner in learners])
+    cycle, to_mm_per_cycle = shape.actuator.cycle_time, 1000.0 / lp.cycles_per_step
+    with World(shape, config.physics, config.environment) as world:
         observe = (lambda k: on_tick(world)) if on_tick is not None else None
+        world.set_phases([learner.phase for learner in learners])
         world.advance(world.ticks_in(lp.warmup_cycles * cycle), observe)
         for step in range(config.steps + 1):
-            tried = np.array([learner.propose() for learner in learners], dtype=float)
-            world.set_phases(tried)
+            for event in events.get(step, ()):
+                if event.kind == "friction":
+                    world.set_friction_scale(event.scale)
+                elif event.kind == "noise":
+                    noise = event.sigma
+                elif event.kind == "damage":
+                    damage[event.unit - 1] = event.mode
+                elif event.kind == "shuffle":
+                    order = order[np.random.default_rng(np.random.SeedSequence([event.seed, 4])).permutation(n)]
+                elif event.kind == "cut":
+                    world.cut(event.link - 1)
+                if event.kind in ("damage", "shuffle"):
+                    for p in range(n):  # damage travels with its unit
+                        world.set_damage(p, damage[order[p]])
+            position = np.argsort(order)  # position[u]: where unit u sits
+            alive = np.array([d != "dead" for d in damage])
+            # A dead unit's learner stops: it keeps its phase and gets no measurement.
+            tried = np.array([learners[u].propose() if alive[u] else learners[u].phase for u in range(n)], dtype=float)
+            world.set_phases(tried[order])
             world.advance(world.ticks_in(lp.discard_cycles * cycle), observe)
             sensed, true = measure(world, [sensor, truth], lp.cycles_per_step, on_tick)
-            to_mm_per_cycle = 1000.0 / lp.cycles_per_step
-            noise = np.array([rng.normal(0.0, config.sensor.noise) if config.sensor.noise else 0.0 for rng in noise_rngs])
-            u_measured = sensed * to_mm_per_cycle + noise
+            u_true = true[position] * to_mm_per_cycle
+            u_measured = sensed[position] * to_mm_per_cycle + np.array(
+                [rng.normal(0.0, noise) if noise else 0.0 for rng in noise_rngs])
+            u_measured[~alive] = np.nan
             # Each learner gets its own unit's measurement and nothing else.
-            accepted = np.array([bool(learner.update(float(u))) for learner, u in zip(learners, u_measured)])
+            accepted = np.array([bool(learners[u].update(float(u_measured[u]))) if alive[u] else False for u in range(n)])
             kept = np.array([learner.phase for learner in learners], dtype=float)
-            records.add_step(step, world.time, tried, kept, u_measured, true * to_mm_per_cycle, accepted)
+            piece_of_body = {body: k for k, piece in enumerate(world.pieces()) for body in piece}
+            piece = np.array([piece_of_body[shape.units[p]] for p in position]) + 1
+            records.add_step(step, world.time, tried, kept, u_measured, u_true, accepted, position + 1, piece,
+                             "; ".join(event.describe() for event in events.get(step, ())))
             if progress is not None:
                 progress(step, records)
     records.finish(wall_time=time.perf_counter() - started)

@@ -18,7 +18,8 @@ import math
 import numpy as np
 import pybullet as pb
 
-from morphbench.params import FAST_PHYSICS, PhysicsParams
+from morphbench.params import DAMAGE_MODES, FAST_PHYSICS, EnvironmentParams, PhysicsParams
+from morphbench.physics.friction import FrictionField
 from morphbench.physics.pressure import pressure_trajectory
 from morphbench.shapes.model import Shape
 
@@ -26,13 +27,15 @@ GRAVITY = 9.81  # m/s^2
 GROUND_FRICTION = 1.0  # Bullet multiplies the two bodies' coefficients, so a body's own value is the real one
 UNIT_COLOUR = (0.20, 0.45, 0.80, 1.0)
 DUMMY_COLOUR = (0.55, 0.55, 0.55, 1.0)
+FIELD_UPDATE_PERIOD = 0.1  # s: units move well under a millimetre in this time, the field varies over centimetres
 
 
 class World:
     """One simulation: build it from a shape, set the units' phases, advance time, read the units' poses."""
 
-    def __init__(self, shape: Shape, physics: PhysicsParams = FAST_PHYSICS):
-        self.shape, self.physics = shape, physics
+    def __init__(self, shape: Shape, physics: PhysicsParams = FAST_PHYSICS,
+                 environment: EnvironmentParams = EnvironmentParams()):
+        self.shape, self.physics, self.environment = shape, physics, environment
         self.tick = physics.timestep
         """s, one physics step: pressures and bellows forces are updated every tick."""
         self.client = pb.connect(pb.DIRECT)
@@ -49,8 +52,9 @@ class World:
         self._unit_index = {body: k for k, body in enumerate(shape.units)}
         self.link_units = np.array([self._unit_index[link.unit] for link in shape.links], dtype=int)
         """for each link, the index (in unit order) of the unit whose pump drives it."""
-        for link in shape.links:
-            self._align(link)
+        self._alignments = [self._align(link) for link in shape.links]
+        self.intact = np.ones(len(shape.links), dtype=bool)
+        """for each link, False once it has been cut."""
         self._links = [(link.front, link.rear) for link in shape.links]
         self._empty_pitch = np.array([self._pitch(link) for link in shape.links])
         """m, centre-to-centre distance of each link's two bodies when its bellows is empty."""
@@ -60,6 +64,15 @@ class World:
         """current pressure (0..1) of each bellows."""
         self.phases = np.zeros(shape.n_units)
         """current phase (0..1) of each active unit's pump."""
+        self.damage = ["" for _ in shape.units]
+        """per active unit (unit order): '' (healthy) or a mode of DAMAGE_MODES."""
+        self._stuck_length = np.full(len(shape.links), np.nan)
+        self._friction_scale = environment.friction_scale
+        self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
+        self._base_friction = np.array([body.friction for body in shape.bodies])
+        self._unit_bodies = np.array(shape.units, dtype=int)
+        self._applied_friction = self._base_friction.copy()
+        self._apply_friction(self.poses()[0], np.zeros(shape.n_units, dtype=bool))
         for _ in range(max(1, round(physics.settle_time / self.tick))):
             pb.stepSimulation(physicsClientId=c)
         self.time = 0.0
@@ -75,9 +88,9 @@ class World:
         pb.changeDynamics(uid, -1, lateralFriction=body.friction, physicsClientId=c)
         return uid
 
-    def _align(self, link) -> None:
+    def _align(self, link) -> int:
         c, pitch = self.client, self._pitch(link)
-        pb.createConstraint(
+        return pb.createConstraint(
             self.bodies[link.front], -1, self.bodies[link.rear], -1, pb.JOINT_PRISMATIC, [1, 0, 0],
             [-pitch / 2, 0, 0], [pitch / 2, 0, 0], physicsClientId=c,
         )
@@ -103,22 +116,27 @@ class World:
         if n_ticks <= 0:
             return
         start = self.time
-        trajectory = pressure_trajectory(
-            self.pressure, self.phases[self.link_units], self.time, self.tick, n_ticks, self.shape.actuator
-        )
         actuator = self.shape.actuator
-        rest_lengths = (self._empty_pitch + actuator.stroke * trajectory).tolist()
+        trajectory = pressure_trajectory(
+            self.pressure, self.phases[self.link_units], start, self.tick, n_ticks, actuator
+        )
+        rest_lengths = self._rest_lengths(trajectory).tolist()
+        friction_ticks, pumping = self._friction_schedule(start, n_ticks)
         stiffness, damping, cap, dt = actuator.stiffness, actuator.damping, actuator.max_force, self.tick
-        c, bodies, links, lengths = self.client, self.bodies, self._links, self._lengths
+        c, bodies, lengths = self.client, self.bodies, self._lengths
+        links = [(i, front, rear) for i, (front, rear) in enumerate(self._links) if self.intact[i]]
         get_pose, push, step, frame = pb.getBasePositionAndOrientation, pb.applyExternalForce, pb.stepSimulation, pb.WORLD_FRAME
         for k in range(n_ticks):
             # Hot loop, plain floats: one pose read per body, one force per body and bellows, one solver call.
             positions = [get_pose(uid, physicsClientId=c)[0] for uid in bodies]
-            for i, ((front, rear), rest) in enumerate(zip(links, rest_lengths[k])):
+            if k in friction_ticks:
+                self._apply_friction(positions, pumping[k])
+            rest_k = rest_lengths[k]
+            for i, front, rear in links:
                 (xf, yf, zf), (xr, yr, zr) = positions[front], positions[rear]
                 dx, dy, dz = xf - xr, yf - yr, zf - zr
                 length = math.sqrt(dx * dx + dy * dy + dz * dz)
-                force = stiffness * (rest - length) - damping * (length - lengths[i]) / dt
+                force = stiffness * (rest_k[i] - length) - damping * (length - lengths[i]) / dt
                 force = max(-cap, min(cap, force)) / length  # > 0 pushes the bodies apart
                 lengths[i] = length
                 push(bodies[front], -1, (force * dx, force * dy, force * dz), positions[front], frame, physicsClientId=c)
@@ -128,6 +146,84 @@ class World:
                 self.pressure, self.time = trajectory[k], start + (k + 1) * dt
                 on_tick(k)
         self.pressure, self.time = trajectory[-1], start + n_ticks * dt
+
+    def _rest_lengths(self, trajectory: np.ndarray) -> np.ndarray:
+        """(n_ticks, n_links) rest length of each bellows: a damaged one cannot inflate, a stuck one keeps its length."""
+        extends = np.array([self.damage[u] not in ("no-inflate", "dead") for u in self.link_units], dtype=float)
+        rest = self._empty_pitch + self.shape.actuator.stroke * trajectory * extends
+        stuck = ~np.isnan(self._stuck_length)
+        rest[:, stuck] = self._stuck_length[stuck]
+        return rest
+
+    def _friction_schedule(self, start: float, n_ticks: int) -> tuple[set[int], np.ndarray | None]:
+        """Ticks at which friction must be set again (pump switches when vibrating, field updates) and, when the
+        pumps vibrate, which pumps run at each tick."""
+        ticks: set[int] = set()
+        pumping = None
+        if self.environment.vibration != 1.0:
+            t = start + self.tick * np.arange(n_ticks)
+            actuator = self.shape.actuator
+            pumping = np.mod(t[:, None] / actuator.cycle_time - self.phases, 1.0) < actuator.alpha
+            pumping &= np.array([d != "dead" for d in self.damage])
+            switches = np.flatnonzero(np.any(pumping[1:] != pumping[:-1], axis=1)) + 1
+            ticks.update(switches.tolist())
+            ticks.add(0)
+        if self._field is not None:
+            ticks.update(range(0, n_ticks, max(1, round(FIELD_UPDATE_PERIOD / self.tick))))
+        return ticks, pumping
+
+    def _apply_friction(self, positions, pumping) -> None:
+        """Set each body's friction from the scale, the field under it and its pump's vibration (changed ones only)."""
+        friction = self._base_friction * self._friction_scale
+        if self._field is not None:
+            xy = np.asarray(positions)[:, :2]
+            friction = self._field.friction(friction, xy[:, 0], xy[:, 1])
+        if pumping is not None:
+            friction[self._unit_bodies[pumping]] *= self.environment.vibration
+        for i in np.flatnonzero(np.abs(friction - self._applied_friction) > 1e-9):
+            pb.changeDynamics(self.bodies[i], -1, lateralFriction=float(friction[i]), physicsClientId=self.client)
+        self._applied_friction = friction
+
+    def set_friction_scale(self, scale: float) -> None:
+        """Multiply every body's friction by ``scale`` from now on (instead of the environment's scale)."""
+        self._friction_scale = scale
+        self._apply_friction(self.poses()[0], None)
+
+    def set_damage(self, unit: int, mode: str) -> None:
+        """Damage the active unit at ``unit`` (unit order, 0-based): 'no-inflate' (its bellows cannot extend; pump and
+        vibration go on), 'stuck' (its bellows keeps its current length), 'dead' (no pump, no vibration); '' heals."""
+        if mode not in ("",) + DAMAGE_MODES:
+            raise ValueError(f"damage mode must be '' (healthy) or one of {DAMAGE_MODES}, got {mode!r}")
+        if self.damage[unit] == mode:
+            return
+        self.damage[unit] = mode
+        driven = self.link_units == unit
+        self._stuck_length[driven] = (self._empty_pitch + self.shape.actuator.stroke * self.pressure)[driven] \
+            if mode == "stuck" else np.nan
+
+    def cut(self, link: int) -> None:
+        """Cut link ``link`` (index into shape.links): its bellows and alignment are gone; the pieces move apart freely."""
+        if self.intact[link]:
+            pb.removeConstraint(self._alignments[link], physicsClientId=self.client)
+            self.intact[link] = False
+
+    def pieces(self) -> list[list[int]]:
+        """Connected groups of body indices over the intact links, the piece holding body 0 first."""
+        parent = list(range(len(self.bodies)))
+
+        def root(i: int) -> int:
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        for i, (front, rear) in enumerate(self._links):
+            if self.intact[i]:
+                parent[root(front)] = root(rear)
+        groups: dict[int, list[int]] = {}
+        for body in range(len(self.bodies)):
+            groups.setdefault(root(body), []).append(body)
+        return sorted(groups.values())
 
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
         """Positions (N, 3, m) and orientations (N, 4 quaternions x, y, z, w) of the given bodies (default all)."""
