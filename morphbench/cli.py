@@ -8,10 +8,11 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from morphbench.errors import ConfigError
-from morphbench.params import PHYSICS_PRESETS, SENSOR_KINDS, EnvironmentParams, LearnerParams, SensorParams
+from morphbench.params import PHYSICS_PRESETS, SENSOR_KINDS
 
 EXIT_BAD_INPUT = 2
 
@@ -46,22 +47,20 @@ def _parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     run = sub.add_parser("run", help="learn a gait on a shape and write records, summary and a learning curve")
-    run.add_argument("shape", help="morphology file, e.g. shapes/chain-3.toml")
-    run.add_argument("--learner", default="thermal", help="thermal, flaky or a plug-in package.module:Class")
-    run.add_argument("--steps", type=_number(0, low_inclusive=True, integer=True), default=100,
+    run.add_argument("config", metavar="FILE",
+                     help="a morphology file (shapes/chain-3.toml) or a run configuration (examples/s6-damage.toml)")
+    # Options default to None: given ones override the file, the others leave it as it is.
+    run.add_argument("--learner", help="thermal, flaky or a plug-in package.module:Class")
+    run.add_argument("--steps", type=_number(0, low_inclusive=True, integer=True),
                      help="learning steps after the initial measurement (default 100)")
-    run.add_argument("--seed", type=_number(0, low_inclusive=True, integer=True), default=0)
-    run.add_argument("--temperature", type=_number(0), default=LearnerParams().temperature,
-                     help="T in mm/cycle (default %(default)s)")
-    run.add_argument("--step-size", type=_number(0, 1), default=LearnerParams().step_size,
-                     help="delta_s in cycles (default %(default)s)")
-    run.add_argument("--cycles-per-step", type=_number(1, low_inclusive=True, integer=True),
-                     default=LearnerParams().cycles_per_step, help="n_act (default %(default)s)")
-    run.add_argument("--sensor", choices=SENSOR_KINDS, default=SensorParams().kind)
-    run.add_argument("--noise", type=_number(0, low_inclusive=True), default=0.0,
-                     help="Gaussian measurement noise, mm/cycle (default 0)")
-    _add_physics(run)
-    run.add_argument("--out", help="output directory (default runs/SHAPE-LEARNER-seedS)")
+    run.add_argument("--seed", type=_number(0, low_inclusive=True, integer=True))
+    run.add_argument("--temperature", type=_number(0), help="T in mm/cycle")
+    run.add_argument("--step-size", type=_number(0, 1), help="delta_s in cycles")
+    run.add_argument("--cycles-per-step", type=_number(1, low_inclusive=True, integer=True), help="n_act")
+    run.add_argument("--sensor", choices=SENSOR_KINDS)
+    run.add_argument("--noise", type=_number(0, low_inclusive=True), help="Gaussian measurement noise, mm/cycle")
+    _add_physics(run, default=None)
+    run.add_argument("--out", help="output directory (default runs/NAME-LEARNER-seedS)")
     run.add_argument("--overwrite", action="store_true", help="replace the records of an earlier run in --out")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -75,16 +74,16 @@ def _parser() -> argparse.ArgumentParser:
                       help="cycles measured per point")
     scan.add_argument("--seed", type=_number(0, low_inclusive=True, integer=True), default=0)
     scan.add_argument("--workers", type=_number(1, low_inclusive=True, integer=True), default=1)
-    _add_physics(scan)
+    _add_physics(scan, default="fast")
     scan.add_argument("--out", help="output directory (default runs/scan-SHAPE)")
     scan.add_argument("--overwrite", action="store_true", help="replace an earlier scan in --out")
     scan.add_argument("--quiet", action="store_true")
     return parser
 
 
-def _add_physics(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--physics", choices=sorted(PHYSICS_PRESETS), default="fast",
-                        help="integration setting (default fast; reference is slower and is what fast is checked against)")
+def _add_physics(parser: argparse.ArgumentParser, default: str | None) -> None:
+    parser.add_argument("--physics", choices=sorted(PHYSICS_PRESETS), default=default,
+                        help="integration setting (fast by default; reference is slower and is what fast is checked against)")
 
 
 def _output_dir(out: str, marker: str, overwrite: bool) -> Path:
@@ -101,30 +100,33 @@ def _output_dir(out: str, marker: str, overwrite: bool) -> Path:
     return path
 
 
+def _with_options(config, args):
+    """The configuration with the command-line options that were given."""
+    learner = {"temperature": args.temperature, "step_size": args.step_size, "cycles_per_step": args.cycles_per_step}
+    top = {"learner": args.learner, "steps": args.steps, "seed": args.seed,
+           "physics": PHYSICS_PRESETS[args.physics] if args.physics else None}
+    return replace(
+        config,
+        **{key: value for key, value in top.items() if value is not None},
+        learner_params=replace(config.learner_params, **{k: v for k, v in learner.items() if v is not None}),
+        sensor=replace(config.sensor, kind=args.sensor or config.sensor.kind),
+        environment=replace(config.environment, noise=config.environment.noise if args.noise is None else args.noise),
+    )
+
+
 def _cmd_run(args) -> int:
     from tqdm import tqdm
 
     from morphbench import plots
-    from morphbench.experiment import RunConfig, run
+    from morphbench.experiment import load_run_config, run
     from morphbench.learning import load_learner_class
-    from morphbench.shapes import load_shape
 
-    shape = load_shape(args.shape)
-    load_learner_class(args.learner)  # fail on a bad plug-in before simulating
-    learner_name = args.learner.rsplit(":", 1)[-1].lower()
-    out = _output_dir(args.out or f"runs/{shape.name}-{learner_name}-seed{args.seed}", "summary.json", args.overwrite)
-    config = RunConfig(
-        shape=shape,
-        learner=args.learner,
-        learner_params=LearnerParams(temperature=args.temperature, step_size=args.step_size,
-                                     cycles_per_step=args.cycles_per_step),
-        sensor=SensorParams(kind=args.sensor),
-        environment=EnvironmentParams(noise=args.noise),
-        physics=PHYSICS_PRESETS[args.physics],
-        steps=args.steps,
-        seed=args.seed,
-    )
-    with tqdm(total=args.steps + 1, desc=f"{shape.name} {learner_name}", unit="step", disable=args.quiet) as bar:
+    config = _with_options(load_run_config(args.config), args)
+    load_learner_class(config.learner)  # fail on a bad plug-in before simulating
+    name = Path(args.config).stem
+    learner_name = config.learner.rsplit(":", 1)[-1].lower()
+    out = _output_dir(args.out or f"runs/{name}-{learner_name}-seed{config.seed}", "summary.json", args.overwrite)
+    with tqdm(total=config.steps + 1, desc=f"{name} {learner_name}", unit="step", disable=args.quiet) as bar:
         def progress(step, records):
             bar.update(1)
             bar.set_postfix_str(f"Ubar {records.last_ubar:+.2f} mm/cycle")
@@ -132,11 +134,13 @@ def _cmd_run(args) -> int:
         records = run(config, progress)
     records.write(out)
     plots.learning_curve(records.steps(), records.units(), out / "learning_curve.png",
-                         title=f"{shape.name}, {learner_name}, seed {args.seed}")
+                         title=f"{name}, {learner_name}, seed {config.seed}")
     summary = records.summary()
-    print(f"{shape.name}: final Ubar {summary['final_ubar']:+.2f} mm/cycle (true {summary['final_ubar_true']:+.2f}), "
+    print(f"{name}: final Ubar {summary['final_ubar']:+.2f} mm/cycle (true {summary['final_ubar_true']:+.2f}), "
           f"mean acceptance {summary['mean_acceptance']:.2f}, {summary['wall_time_s']:.1f} s wall time")
-    print(f"records in {out}/ (units.parquet, steps.parquet, summary.json, learning_curve.png)")
+    if len(summary["final_ubar_by_piece"]) > 1:
+        print("  pieces: " + ", ".join(f"{k}: {v:+.2f}" for k, v in summary["final_ubar_by_piece"].items()))
+    print(f"records in {out}/ (units.parquet, steps.parquet, pieces.parquet, summary.json, learning_curve.png)")
     return 0
 
 

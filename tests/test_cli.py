@@ -192,7 +192,7 @@ def test_missing_shape_file(tmp_path: Path, capsys):
     shape = tmp_path / "nosuch.toml"
     code, _, err = short_run(capsys, tmp_path / "out", shape=str(shape))
     assert code == EXIT_BAD_INPUT
-    assert_one_line_error(err, str(shape), "existing morphology file")
+    assert_one_line_error(err, str(shape), "morphology file")
     assert not (tmp_path / "out").exists()
 
 

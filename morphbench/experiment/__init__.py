@@ -1,7 +1,9 @@
 """Experiments: the run loop, its records and landscape scans."""
 
+from morphbench.experiment.config import load_run_config, run_config_from_table
+from morphbench.experiment.events import Event, parse_events
 from morphbench.experiment.records import RunRecords
 from morphbench.experiment.run import RunConfig, make_sensor, measure, run
 from morphbench.experiment.scan import scan, scan_phases, velocity_at
 
-__all__ = ["RunConfig", "RunRecords", "make_sensor", "measure", "run", "scan", "scan_phases", "velocity_at"]
+__all__ = ["Event", "RunConfig", "RunRecords", "load_run_config", "parse_events", "run_config_from_table", "make_sensor", "measure", "run", "scan", "scan_phases", "velocity_at"]

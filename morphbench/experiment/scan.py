@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from morphbench.experiment.run import measure
-from morphbench.params import FAST_PHYSICS, PhysicsParams
+from morphbench.params import FAST_PHYSICS, EnvironmentParams, PhysicsParams
 from morphbench.physics import World
 from morphbench.sensing import IdealSensor
 from morphbench.shapes import Shape
@@ -39,9 +39,9 @@ def scan_phases(n_units: int, resolution: int, samples: int | None = None, seed:
 
 
 def velocity_at(shape: Shape, phases, physics: PhysicsParams = FAST_PHYSICS, cycles: int = DEFAULT_CYCLES,
-                discard: int = DEFAULT_DISCARD) -> np.ndarray:
+                discard: int = DEFAULT_DISCARD, environment: EnvironmentParams = EnvironmentParams()) -> np.ndarray:
     """True velocity of each unit (mm/cycle) at fixed phases, averaged over ``cycles`` after ``discard``."""
-    with World(shape, physics) as world:
+    with World(shape, physics, environment) as world:
         world.set_phases(phases)
         world.advance(world.ticks_in(discard * shape.actuator.cycle_time))
         (displacement,) = measure(world, [IdealSensor(shape.n_units, sample_period=0.5)], cycles)
@@ -49,16 +49,16 @@ def velocity_at(shape: Shape, phases, physics: PhysicsParams = FAST_PHYSICS, cyc
 
 
 def _ubar(args) -> float:
-    shape, phases, physics, cycles, discard = args
-    return float(np.mean(velocity_at(shape, phases, physics, cycles, discard)))
+    return float(np.mean(velocity_at(*args)))
 
 
 def scan(shape: Shape, resolution: int = 20, *, physics: PhysicsParams = FAST_PHYSICS, cycles: int = DEFAULT_CYCLES,
          discard: int = DEFAULT_DISCARD, samples: int | None = None, seed: int = 0, workers: int = 1,
+         environment: EnvironmentParams = EnvironmentParams(),
          progress: Callable[[int], None] | None = None) -> pd.DataFrame:
     """Ubar over phase differences: columns ``dphi_2`` ... ``dphi_N`` (cycles) and ``ubar`` (mm/cycle)."""
     phases = scan_phases(shape.n_units, resolution, samples, seed)
-    jobs = [(shape, p, physics, cycles, discard) for p in phases]
+    jobs = [(shape, p, physics, cycles, discard, environment) for p in phases]
     ubar = []
     with ProcessPoolExecutor(max_workers=workers) if workers > 1 else nullcontext() as pool:
         chunk = max(1, len(jobs) // (8 * workers))

@@ -130,7 +130,7 @@ class World:
             # Hot loop, plain floats: one pose read per body, one force per body and bellows, one solver call.
             positions = [get_pose(uid, physicsClientId=c)[0] for uid in bodies]
             if k in friction_ticks:
-                self._apply_friction(positions, pumping[k])
+                self._apply_friction(positions, None if pumping is None else pumping[k])
             rest_k = rest_lengths[k]
             for i, front, rear in links:
                 (xf, yf, zf), (xr, yr, zr) = positions[front], positions[rear]

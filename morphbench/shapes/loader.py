@@ -33,27 +33,36 @@ from morphbench.shapes.model import Body, Link, Shape
 GENERATORS = ("chain",)
 MAX_UNITS = 200
 
-# Allowed range of each numeric parameter: (low, high, low_inclusive). Fields not listed must be > 0.
+# Allowed range of each numeric parameter: (low, high, low_inclusive). Numbers not listed must be > 0, integers >= 1.
 _RANGES = {
     "friction": (0.0, math.inf, True),
     "alpha": (0.0, 1.0, False),
+    "noise": (0.0, math.inf, True),
+    "amplitude": (0.0, math.inf, True),
+    "warmup_cycles": (0, math.inf, True),
+    "discard_cycles": (0, math.inf, True),
+    "seed": (0, math.inf, True),
 }
 
 
 def load_shape(path: str | Path) -> Shape:
     """Load and validate one morphology file."""
     path = Path(path)
+    return shape_from_table(read_toml(path, "morphology file"), source=str(path), default_name=path.stem)
+
+
+def read_toml(path: Path, what: str) -> dict[str, Any]:
+    """A TOML file's table; a missing, unreadable or malformed file is a ConfigError naming it."""
     try:
         text = path.read_text(encoding="utf-8")  # TOML is UTF-8 whatever the locale
     except FileNotFoundError:
-        raise ConfigError(path, "(file)", "an existing morphology file (.toml)") from None
+        raise ConfigError(path, "(file)", f"an existing {what} (.toml)") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(path, "(file)", f"a readable UTF-8 TOML file ({exc})") from None
     try:
-        table = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(path, "(syntax)", f"valid TOML ({exc})") from None
-    return shape_from_table(table, source=str(path), default_name=path.stem)
 
 
 def shape_from_table(table: dict[str, Any], *, source: str, default_name: str = "shape") -> Shape:
@@ -93,8 +102,9 @@ def _checked_value(value: Any, default: Any, source: str, dotted: str, key: str)
             raise ConfigError(source, dotted, "a string", value)
         return value
     if isinstance(default, int):
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise ConfigError(source, dotted, "a positive integer", value)
+        low = _RANGES.get(key, (1,))[0]
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            raise ConfigError(source, dotted, f"an integer >= {low}", value)
         return value
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ConfigError(source, dotted, "a finite number", value)

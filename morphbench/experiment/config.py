@@ -1,0 +1,129 @@
+"""Run configuration files: a shape, a learner, a sensor, an environment, events, physics, steps and seed.
+
+    description = "S6: unit 2's bellows loses its needle at step 300"
+    shape = "../shapes/chain-3.toml"    # relative to this file
+    steps = 600
+    seed = 1
+
+    [learner]                 # name: thermal | flaky | package.module:Class, and any LearnerParams field
+    name = "thermal"
+    temperature = 1.0
+
+    [sensor]                  # SensorParams fields
+    kind = "ideal"
+
+    [environment]             # EnvironmentParams fields
+    noise = 0.5               # mm/cycle
+    vibration = 0.8
+    [environment.friction_field]
+    amplitude = 0.3
+
+    [physics]                 # preset = "fast" | "reference", or PhysicsParams fields
+    preset = "fast"
+
+    [[events]]                # see morphbench.experiment.events
+    step = 300
+    kind = "damage"
+    unit = 2
+    mode = "no-inflate"
+
+``morphbench run FILE`` takes a run configuration or a bare morphology file (then everything else is default);
+command-line options override the file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+from morphbench.errors import ConfigError
+from morphbench.experiment.events import parse_events
+from morphbench.experiment.run import RunConfig
+from morphbench.learning import load_learner_class
+from morphbench.params import (
+    PHYSICS_PRESETS,
+    SENSOR_KINDS,
+    EnvironmentParams,
+    FrictionFieldParams,
+    LearnerParams,
+    PhysicsParams,
+    SensorParams,
+)
+from morphbench.shapes import load_shape, params_from_table, read_toml, shape_from_table
+
+RUN_KEYS = {"description", "shape", "steps", "seed", "learner", "sensor", "environment", "physics", "events"}
+
+
+def load_run_config(path: str | Path) -> RunConfig:
+    """A run configuration file, or a morphology file taken as a run with every default."""
+    path = Path(path)
+    table = read_toml(path, "run configuration or morphology file")
+    if "assembly" in table:
+        return RunConfig(shape=shape_from_table(table, source=str(path), default_name=path.stem))
+    return run_config_from_table(table, str(path), base=path.parent)
+
+
+def run_config_from_table(table: dict[str, Any], source: str, base: Path) -> RunConfig:
+    """Validate a run configuration table; ``base`` is where relative shape paths start."""
+    for key in table:
+        if key not in RUN_KEYS:
+            raise ConfigError(source, key, f"one of the keys of a run configuration: {', '.join(sorted(RUN_KEYS))}")
+    if not isinstance(table.get("shape"), str):
+        raise ConfigError(source, "shape", "the path of a morphology file (a string, relative to this file)",
+                          table.get("shape", ...))
+    shape = load_shape(base / table["shape"])
+    learner_table = dict(_table(table, "learner", source))
+    learner = learner_table.pop("name", "thermal")
+    if not isinstance(learner, str):
+        raise ConfigError(source, "learner.name", "thermal, flaky or package.module:Class", learner)
+    load_learner_class(learner)
+    sensor = params_from_table(SensorParams, _table(table, "sensor", source), source, "sensor")
+    if sensor.kind not in SENSOR_KINDS:
+        raise ConfigError(source, "sensor.kind", f"one of {', '.join(SENSOR_KINDS)}", sensor.kind)
+    return RunConfig(
+        shape=shape,
+        learner=learner,
+        learner_params=params_from_table(LearnerParams, learner_table, source, "learner"),
+        sensor=sensor,
+        environment=environment_from_table(_table(table, "environment", source), source, "environment"),
+        events=parse_events(table.get("events", []), source, shape.n_units, len(shape.links)),
+        physics=physics_from_table(_table(table, "physics", source), source, "physics"),
+        steps=_count(table, "steps", RunConfig.steps, source),
+        seed=_count(table, "seed", RunConfig.seed, source),
+    )
+
+
+def environment_from_table(table: dict[str, Any], source: str, section: str) -> EnvironmentParams:
+    """EnvironmentParams from a table whose ``friction_field`` is a sub-table."""
+    table = dict(table)
+    field_table = table.pop("friction_field", {})
+    environment = params_from_table(EnvironmentParams, table, source, section)
+    friction_field = params_from_table(FrictionFieldParams, field_table, source, f"{section}.friction_field")
+    if not friction_field.amplitude < 1:
+        raise ConfigError(source, f"{section}.friction_field.amplitude", "a number in [0, 1)", friction_field.amplitude)
+    return dataclasses.replace(environment, friction_field=friction_field)
+
+
+def physics_from_table(table: dict[str, Any], source: str, section: str) -> PhysicsParams:
+    """A preset by name (``preset = "fast"``), optionally with fields of PhysicsParams overriding it."""
+    table = dict(table)
+    preset = table.pop("preset", "fast")
+    if preset not in PHYSICS_PRESETS:
+        raise ConfigError(source, f"{section}.preset", f"one of {', '.join(PHYSICS_PRESETS)}", preset)
+    overrides = params_from_table(PhysicsParams, table, source, section)
+    return dataclasses.replace(PHYSICS_PRESETS[preset], **{key: getattr(overrides, key) for key in table})
+
+
+def _table(table: dict[str, Any], key: str, source: str) -> dict[str, Any]:
+    value = table.get(key, {})
+    if not isinstance(value, dict):
+        raise ConfigError(source, key, "a table", value)
+    return value
+
+
+def _count(table: dict[str, Any], key: str, default: int, source: str) -> int:
+    value = table.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ConfigError(source, key, "an integer >= 0", value)
+    return value
