@@ -119,17 +119,6 @@ class LearnerParams:
 INITIAL_MEMORY_CHOICES = ("measure", "-inf", "zero")
 
 
-@dataclass(frozen=True, kw_only=True)
-class SensorParams:
-    """How each unit measures its own displacement."""
-
-    kind: str = "ideal"
-    """'ideal': the unit's true displacement along its own forward axis."""
-    sample_period: float = 0.1
-    """s, how often the sensor reads the unit's pose and integrates its forward displacement."""
-
-
-SENSOR_KINDS = ("ideal",)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -166,6 +155,8 @@ class EnvironmentParams:
     noise: float = 0.0
     """mm/cycle, standard deviation of Gaussian noise added to each measured velocity, on top of the sensor's own."""
     friction_field: FrictionFieldParams = field(default_factory=FrictionFieldParams)
+    ground: GroundParams = field(default_factory=lambda: GroundParams())
+    """the texture optical sensors look at (and videos show)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -177,13 +168,13 @@ class GroundParams:
     """path of an image file used as the tile, read in greyscale; '' makes a procedural tile from the fields below."""
     seed: int = 1
     """seed of the procedural tile: the same seed gives the same ground."""
-    grain: float = 0.0025
+    grain: float = 0.003
     """m, feature size of the procedural tile: standard deviation of the Gaussian that smooths its white noise
     (2 pixels of the default optical sensor, which Lucas-Kanade tracks best)."""
     contrast: float = 0.5
     """in (0, 1], of the procedural tile: its grey levels have a standard deviation of contrast / 6 of the full range
     around mid-grey, so +-3 standard deviations span this fraction of black to white."""
-    resolution: float = 0.00125
+    resolution: float = 0.0015
     """m, ground size of one tile pixel, for a procedural tile and an image file alike (the default is the optical
     sensor's pixel size)."""
     length: float = 2.0
@@ -198,17 +189,17 @@ class OpticalParams:
     looks straight down at the ground, like an optical mouse, and tracks the image's motion between frames.
 
     Scaled to what the simulation affords: a real mouse sensor takes thousands of frames a second of pixels of about
-    0.05 mm. Here 10 frames a second of 1.25 mm pixels keep the sensor's cost near a tenth of the physics' while the
-    fastest units (up to about 8 mm per 0.1 s in long chains) still move only a few pixels between frames, the regime
-    a mouse sensor works in. Finer pixels lower the error in mm but need a proportionally higher frame rate (units
+    0.05 mm. Here 8 frames a second of 1.5 mm pixels keep the sensor's cost under a tenth of the physics' while the
+    fastest units (up to about 10 mm per frame in long chains) still move only a few pixels between frames, the
+    regime a mouse sensor works in. Finer pixels lower the error in mm but need a proportionally higher frame rate (units
     would move more pixels per frame), and the cost grows with the frame rate.
     """
 
-    frame_rate: float = 10.0
+    frame_rate: float = 8.0
     """Hz, frames per second: the sensor's sample rate."""
     patch_size: int = 32
     """px, side of the square image."""
-    pixel_size: float = 0.00125
+    pixel_size: float = 0.0015
     """m, ground size of one image pixel when the sensor looks straight down (its nominal resolution)."""
     noise: float = 0.01
     """standard deviation of the Gaussian noise added to every pixel, as a fraction of the black-to-white range."""
@@ -223,3 +214,50 @@ class OpticalParams:
     mount_depth: float = 0.015
     """m, how far below the unit's centre (along the unit's own down axis) the sensor sits: half the unit's height
     puts it on the underside, where a unit resting on the ground has zero lift."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class SensorParams:
+    """How each unit measures its own displacement along its own forward axis."""
+
+    kind: str = "optical"
+    """'optical': an optical-flow sensor under the unit looking at the textured ground (OpticalParams);
+    'ideal': the unit's true displacement (ground truth, also recorded as u_true in every run)."""
+    sample_period: float = 0.125
+    """s, how often the ideal sensor reads the unit's pose; the ground truth of an optical run is sampled at the
+    optical frame rate instead, so both read the same poses."""
+    optical: OpticalParams = field(default_factory=lambda: OpticalParams())
+
+
+SENSOR_KINDS = ("optical", "ideal")
+
+
+@dataclass(frozen=True, kw_only=True)
+class VideoParams:
+    """An off-screen video of a run (morphbench.render): what it shows, how big, how fast. The container follows the
+    output file's suffix: .mp4 (H.264 where this OpenCV build can write it, else MPEG-4 part 2) or .gif."""
+
+    width: int = 640
+    """px, frame width (an even number)."""
+    height: int = 360
+    """px, frame height (an even number)."""
+    fps: float = 30.0
+    """frames per second of the output video (at most 50 for a GIF: browsers slow faster GIFs down)."""
+    speed: float = 1.0
+    """playback speed: simulated seconds per video second (> 1 is a time-lapse); a frame every speed / fps
+    simulated seconds."""
+    steps: tuple[int, int | None] | None = None
+    """learning steps to show, (first, last) inclusive, last None for 'to the end'; None shows every step. Step 0
+    includes the warm-up before it."""
+    distance: float = 0.0
+    """m, from the camera to the point it looks at; 0 picks one that fits the whole assembly in the frame."""
+    pitch: float = -30.0
+    """degrees, camera elevation: 0 looks horizontally, -90 straight down. The camera looks along +y, so forward (+x)
+    motion runs left to right in the image."""
+    follow: bool = True
+    """True: the camera follows the assembly (its mean body position, smoothed); False: it stays where it started."""
+    follow_time: float = 4.0
+    """s of simulated time, time constant of the camera's smoothing (two cycles by default, so it does not shake with
+    each pump stroke)."""
+    overlay: bool = True
+    """draw simulated time, learning step, Ubar and each unit's phase on the frames."""

@@ -82,7 +82,9 @@ def test_run_writes_records_summary_and_curve(tmp_path: Path, capsys):
     for column in ("phase_tried", "phase_kept"):
         assert units[column].between(0.0, 1.0, inclusive="left").all()
     assert units[["u_measured", "u_true"]].notna().all().all()
-    assert units.u_measured.tolist() == units.u_true.tolist()  # ideal sensor, no noise
+    # the default optical sensor is close to the truth, not equal to it
+    assert (units.u_measured - units.u_true).abs().max() < 0.5
+    assert units.u_measured.tolist() != units.u_true.tolist()
     assert steps.ubar.tolist() == pytest.approx(units.groupby("step").u_measured.mean().tolist())
 
     summary = json.loads((out / "summary.json").read_text())

@@ -8,7 +8,7 @@ import pytest
 from morphbench.errors import ConfigError
 from morphbench.experiment import Event, RunConfig, load_run_config, parse_events, run, run_config_from_table
 from morphbench.experiment.scan import velocity_at
-from morphbench.params import EnvironmentParams, FrictionFieldParams
+from morphbench.params import EnvironmentParams, FrictionFieldParams, SensorParams
 from morphbench.physics import World
 from morphbench.shapes import load_shape, shape_from_table
 
@@ -100,7 +100,7 @@ def test_every_event_is_recorded_at_its_step_and_acts():
     events = (Event(step=2, kind="friction", scale=0.8), Event(step=3, kind="noise", sigma=0.5),
               Event(step=3, kind="damage", unit=3, mode="dead"), Event(step=4, kind="shuffle", seed=5),
               Event(step=5, kind="cut", link=1))
-    records = run(RunConfig(shape=CHAIN_3, steps=6, seed=2, events=events))
+    records = run(RunConfig(shape=CHAIN_3, steps=6, seed=2, events=events, sensor=SensorParams(kind="ideal")))
     steps, units = records.steps(), records.units()
     assert steps.event[2] == "friction scale=0.8"
     assert steps.event[3] == "noise sigma=0.5; damage unit=3 mode=dead"

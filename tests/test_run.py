@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from morphbench.experiment import RunConfig, run
-from morphbench.params import EnvironmentParams, LearnerParams
+from morphbench.params import EnvironmentParams, LearnerParams, SensorParams
 from morphbench.shapes import load_shape
 
 CHAIN_2 = load_shape("shapes/chain-2.toml")
@@ -56,16 +56,18 @@ def test_measurement_noise_has_the_requested_spread_and_its_own_stream_per_unit(
     error = (units.u_measured - units.u_true).to_numpy().reshape(-1, 3)
     assert error.std() == pytest.approx(1.0, rel=0.2)
     assert abs(np.corrcoef(error[:, 0], error[:, 1])[0, 1]) < 0.4
-    noiseless = run(RunConfig(shape=CHAIN_3, steps=2, seed=3)).units()
+    noiseless = run(RunConfig(shape=CHAIN_3, steps=2, seed=3, sensor=SensorParams(kind="ideal"))).units()
     assert np.array_equal(noiseless.u_measured, noiseless.u_true)
 
 
-def test_a_thermal_chain_learns_to_move_forward():
-    """Thermal learners beat blind phase changes (every trial accepted) on the same seeds, by a clear margin."""
+@pytest.mark.parametrize("sensor", ["ideal", "optical"])
+def test_a_thermal_chain_learns_to_move_forward(sensor):
+    """Thermal learners beat blind phase changes (every trial accepted) on the same seeds, by a clear margin, with
+    the ideal sensor and with the optical one alike."""
     def late_ubar(temperature: float) -> float:
         values = []
         for seed in range(4):
-            steps = run(RunConfig(shape=CHAIN_2, steps=60, seed=seed,
+            steps = run(RunConfig(shape=CHAIN_2, steps=60, seed=seed, sensor=SensorParams(kind=sensor),
                                   learner_params=LearnerParams(temperature=temperature))).steps()
             values.append(steps.ubar_true[steps.step > 30].mean())
         return float(np.mean(values))

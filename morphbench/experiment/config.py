@@ -45,7 +45,6 @@ from morphbench.params import (
     PHYSICS_PRESETS,
     SENSOR_KINDS,
     EnvironmentParams,
-    FrictionFieldParams,
     LearnerParams,
     PhysicsParams,
     SensorParams,
@@ -95,14 +94,12 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path) -> Run
 
 
 def environment_from_table(table: dict[str, Any], source: str, section: str) -> EnvironmentParams:
-    """EnvironmentParams from a table whose ``friction_field`` is a sub-table."""
-    table = dict(table)
-    field_table = table.pop("friction_field", {})
+    """EnvironmentParams, with its friction_field and ground sub-tables."""
     environment = params_from_table(EnvironmentParams, table, source, section)
-    friction_field = params_from_table(FrictionFieldParams, field_table, source, f"{section}.friction_field")
-    if not friction_field.amplitude < 1:
-        raise ConfigError(source, f"{section}.friction_field.amplitude", "a number in [0, 1)", friction_field.amplitude)
-    return dataclasses.replace(environment, friction_field=friction_field)
+    if not environment.friction_field.amplitude < 1:
+        raise ConfigError(source, f"{section}.friction_field.amplitude", "a number in [0, 1)",
+                          environment.friction_field.amplitude)
+    return environment
 
 
 def physics_from_table(table: dict[str, Any], source: str, section: str) -> PhysicsParams:

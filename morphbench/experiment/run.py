@@ -6,6 +6,7 @@ The CLI, the scans and the tests all go through ``run`` (and ``measure`` for fix
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -20,16 +21,17 @@ from morphbench.params import (
     FAST_PHYSICS,
     SENSOR_KINDS,
     EnvironmentParams,
-    FrictionFieldParams,
+    GroundParams,
     LearnerParams,
     PhysicsParams,
     SensorParams,
 )
 from morphbench.physics import World
-from morphbench.sensing import IdealSensor, Sensor
-from morphbench.shapes import Shape, load_shape
+from morphbench.sensing import GroundTexture, IdealSensor, OpticalSensor, Sensor
+from morphbench.shapes import Shape, load_shape, params_from_dict
 
 NOISE_STREAM = 1  # SeedSequence([seed, NOISE_STREAM, unit]) is unit's measurement-noise stream; 0 is its learner's
+OPTICAL_STREAM = 5  # SeedSequence([seed, OPTICAL_STREAM]): the optical sensors' image noise
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -65,12 +67,11 @@ class RunConfig:
             return cls(
                 shape=load_shape(data["shape"]["source"]),
                 learner=data["learner"],
-                learner_params=LearnerParams(**data["learner_params"]),
-                sensor=SensorParams(**data["sensor"]),
-                environment=EnvironmentParams(**{**data["environment"], "friction_field": FrictionFieldParams(
-                    **data["environment"]["friction_field"])}),
+                learner_params=params_from_dict(LearnerParams, data["learner_params"]),
+                sensor=params_from_dict(SensorParams, data["sensor"]),
+                environment=params_from_dict(EnvironmentParams, data["environment"]),
                 events=tuple(Event(**e) for e in data["events"]),
-                physics=PhysicsParams(**data["physics"]),
+                physics=params_from_dict(PhysicsParams, data["physics"]),
                 steps=data["steps"],
                 seed=data["seed"],
             )
@@ -78,11 +79,20 @@ class RunConfig:
             raise ConfigError(source, "config", f"a run configuration written by morphbench ({exc})") from None
 
 
-def make_sensor(params: SensorParams, n_units: int) -> Sensor:
-    """The sensor bank a run uses."""
+def make_sensor(params: SensorParams, n_units: int, environment: EnvironmentParams, seed: int) -> Sensor:
+    """The sensor bank a run uses; an optical one gets its own image-noise stream from the run seed."""
     if params.kind == "ideal":
         return IdealSensor(n_units, params.sample_period)
+    if params.kind == "optical":
+        rng = np.random.default_rng(np.random.SeedSequence([seed, OPTICAL_STREAM]))
+        return OpticalSensor(n_units, params.optical, ground_texture(environment.ground), rng, source="sensor.optical")
     raise ConfigError("--sensor", "sensor", f"one of {', '.join(SENSOR_KINDS)}", params.kind)
+
+
+@functools.lru_cache(maxsize=4)
+def ground_texture(params: GroundParams) -> GroundTexture:
+    """Ground textures are built once per process (a few ms each) and shared: they are read-only."""
+    return GroundTexture(params, source="environment.ground")
 
 
 def measure(world: World, sensors: list[Sensor], n_cycles: int, on_tick: Callable[[World], None] | None = None
@@ -124,8 +134,8 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
     shape, lp, n = config.shape, config.learner_params, config.shape.n_units
     learners = make_learners(load_learner_class(config.learner), lp, config.seed, n)
     noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u])) for u in range(n)]
-    sensor = make_sensor(config.sensor, n)
-    truth = IdealSensor(n, sample_period=config.sensor.sample_period)
+    sensor = make_sensor(config.sensor, n, config.environment, config.seed)
+    truth = IdealSensor(n, sample_period=sensor.sample_period)  # same ticks as the sensor: poses are read once
     records = RunRecords(config)
     order, damage, noise = np.arange(n), [""] * n, config.environment.noise
     events = {}

@@ -50,8 +50,10 @@ class World:
         pb.changeDynamics(self.ground, -1, lateralFriction=GROUND_FRICTION, physicsClientId=c)
         self.bodies = [self._add_body(body) for body in shape.bodies]
         self._unit_index = {body: k for k, body in enumerate(shape.units)}
-        self.link_units = np.array([self._unit_index[link.unit] for link in shape.links], dtype=int)
-        """for each link, the index (in unit order) of the unit whose pump drives it."""
+        self.link_units = np.array([-1 if link.unit is None else self._unit_index[link.unit] for link in shape.links],
+                                   dtype=int)
+        """for each link, the index (in unit order) of the unit whose pump drives it; -1 for a passive link."""
+        self._actuated = self.link_units >= 0
         self._alignments = [self._align(link) for link in shape.links]
         self.intact = np.ones(len(shape.links), dtype=bool)
         """for each link, False once it has been cut."""
@@ -89,15 +91,23 @@ class World:
         return uid
 
     def _align(self, link) -> int:
-        c, pitch = self.client, self._pitch(link)
+        """A prismatic constraint along the link's axis: bodies keep their relative orientation and sideways offset.
+
+        In a closed loop of links this also makes parallel links of a ladder share their extension (the rows of a
+        grid are locked together along the rows), a stiff lateral coupling documented in docs/morphologies.md.
+        """
+        front, rear = (np.asarray(self.shape.bodies[i].position) for i in (link.front, link.rear))
+        pitch = self._pitch(link)
+        axis = (front - rear) / pitch
         return pb.createConstraint(
-            self.bodies[link.front], -1, self.bodies[link.rear], -1, pb.JOINT_PRISMATIC, [1, 0, 0],
-            [-pitch / 2, 0, 0], [pitch / 2, 0, 0], physicsClientId=c,
+            self.bodies[link.front], -1, self.bodies[link.rear], -1, pb.JOINT_PRISMATIC, axis.tolist(),
+            (-axis * pitch / 2).tolist(), (axis * pitch / 2).tolist(), physicsClientId=self.client,
         )
 
     def _pitch(self, link) -> float:
-        front, rear = self.shape.bodies[link.front], self.shape.bodies[link.rear]
-        return (front.size[0] + rear.size[0]) / 2 + self.shape.actuator.rest_gap
+        """m, centre-to-centre distance of the link's bodies at rest (empty bellows)."""
+        front, rear = (np.asarray(self.shape.bodies[i].position) for i in (link.front, link.rear))
+        return float(np.linalg.norm(front - rear))
 
     def set_phases(self, phases) -> None:
         """Set every active unit's phase (unit order, values in [0, 1))."""
@@ -117,9 +127,10 @@ class World:
             return
         start = self.time
         actuator = self.shape.actuator
+        # A passive link has no pump: its pressure trajectory is computed (phase 0) and then zeroed.
         trajectory = pressure_trajectory(
-            self.pressure, self.phases[self.link_units], start, self.tick, n_ticks, actuator
-        )
+            self.pressure, self.phases[np.maximum(self.link_units, 0)], start, self.tick, n_ticks, actuator
+        ) * self._actuated
         rest_lengths = self._rest_lengths(trajectory).tolist()
         friction_ticks, pumping = self._friction_schedule(start, n_ticks)
         stiffness, damping, cap, dt = actuator.stiffness, actuator.damping, actuator.max_force, self.tick
@@ -149,7 +160,8 @@ class World:
 
     def _rest_lengths(self, trajectory: np.ndarray) -> np.ndarray:
         """(n_ticks, n_links) rest length of each bellows: a damaged one cannot inflate, a stuck one keeps its length."""
-        extends = np.array([self.damage[u] not in ("no-inflate", "dead") for u in self.link_units], dtype=float)
+        extends = np.array([u >= 0 and self.damage[u] not in ("no-inflate", "dead") for u in self.link_units],
+                           dtype=float)
         rest = self._empty_pitch + self.shape.actuator.stroke * trajectory * extends
         stuck = ~np.isnan(self._stuck_length)
         rest[:, stuck] = self._stuck_length[stuck]

@@ -3,12 +3,12 @@
 The texture is one tile, a grey image in [0, 1] whose column index runs along the world x axis and whose row index
 runs along the world y axis, ``resolution`` metres per pixel. The tile is centred on the world origin: it covers
 x in [-length / 2, length / 2) and y in [-width / 2, width / 2), so units that start near the origin are far from
-its edges (cutting a patch across an edge takes OpenCV's slower border path). It repeats without end in both directions, so a unit can travel any distance without leaving it. A procedural tile
-is periodic (its noise is smoothed across the seams), so the repetition has no visible seam; an image file usually
-has seams where its opposite edges meet.
+its edges (a patch across an edge takes OpenCV's slower border path). It repeats without end in both directions, so
+a unit can travel any distance without leaving it. A procedural tile is periodic (its noise is smoothed across the
+edges), so the repetition has no seam; an image file usually has seams where its opposite edges meet.
 
-Patches are cut with ``cv2.remap`` (bilinear, sub-pixel; OpenCV resolves positions to 1/32 of a texture pixel, and
-the error this leaves in a measured shift does not accumulate: consecutive frames' position errors cancel in the sum).
+Patches are cut with ``cv2.remap``: bilinear, sub-pixel. OpenCV rounds positions to 1/32 of a texture pixel; for a
+translating view the rounding errors of consecutive frames cancel in the summed displacement.
 """
 
 from __future__ import annotations
@@ -24,10 +24,12 @@ from morphbench.errors import ConfigError
 from morphbench.params import GroundParams
 
 MAX_TEXTURE_PIXELS = 64_000_000
-"""Largest tile, in pixels (256 MB as float32): larger ones are almost certainly a unit mistake."""
-
+"""Largest tile, in pixels (256 MB as float32): a larger one is almost certainly a mistake of units."""
 MIN_TEXTURE_PIXELS = 8
 """Smallest side of a tile, in pixels."""
+MAX_REMAP_ROWS = 32767 - 1
+"""OpenCV's remap takes images under 32767 px a side: the largest tile side, and the most rows of patches cut in one
+call."""
 
 
 class GroundTexture:
@@ -64,7 +66,7 @@ class GroundTexture:
         return self.patches(np.array([[[c, -s, x], [s, c, y]]]), size_px)[0]
 
     def patches(self, affines: np.ndarray, size_px: int) -> np.ndarray:
-        """(N, size_px, size_px) float32 images, one per view, cut in a single vectorised remap.
+        """(N, size_px, size_px) float32 images, one per view, cut in one vectorised remap per thousand views.
 
         ``affines``: (N, 2, 3), for each view the map from an image pixel's offset (u, v, 1) from the image centre
         (u along the columns, v along the rows) to the ground point (x, y) it shows, in metres. The first two columns
@@ -72,20 +74,28 @@ class GroundTexture:
         straight down), the third the ground point at the image centre.
         """
         n = len(affines)
+        per_call = MAX_REMAP_ROWS // size_px
+        if n > per_call:
+            return np.concatenate([self.patches(affines[k : k + per_call], size_px) for k in range(0, n, per_call)])
         rows = np.asarray(affines, dtype=float).transpose(1, 0, 2) / self.resolution  # texture px; x rows, then y rows
-        # Wrap the centres into the tile so coordinates stay small (float32 keeps them exact); BORDER_WRAP does the rest.
+        # Wrap the centres into the tile so coordinates stay small (float32 keeps them exact); BORDER_WRAP does the
+        # rest.
         rows[:, :, 2] = (rows[:, :, 2] + self._origin_px) % self._tile_px
-        # One matrix product gives every pixel's texture coordinates, already laid out as remap's two maps.
-        maps = rows.reshape(2 * n, 3).astype(np.float32) @ _pixel_offsets(size_px)
+        # Every pixel's texture coordinates, already laid out as remap's two maps: a per-row part plus a per-column
+        # part, added in one broadcast pass. Element-wise, not a matrix product: BLAS rounds differently for
+        # different numbers of views, and a patch must not depend on which other patches are cut with it.
+        steps = rows.reshape(2 * n, 3, 1).astype(np.float32)
+        offsets = _pixel_offsets(size_px)
+        maps = (steps[:, 0] * offsets + steps[:, 2])[:, None, :] + (steps[:, 1] * offsets)[:, :, None]
         x_map, y_map = maps.reshape(2, n * size_px, size_px)
-        return cv2.remap(self.image, x_map, y_map, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP).reshape(n, size_px, size_px)
+        views = cv2.remap(self.image, x_map, y_map, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
+        return views.reshape(n, size_px, size_px)
 
 
 @functools.cache
 def _pixel_offsets(size_px: int) -> np.ndarray:
-    """(3, size_px * size_px) float32 (u, v, 1): every pixel's offset from the image centre, row by row."""
-    v, u = np.mgrid[0:size_px, 0:size_px] - (size_px - 1) / 2
-    return np.array([u.ravel(), v.ravel(), np.ones(size_px * size_px)], dtype=np.float32)
+    """(size_px,) float32 offsets of a square image's columns (or rows) from its centre."""
+    return np.arange(size_px, dtype=np.float32) - np.float32((size_px - 1) / 2)
 
 
 def _check(params: GroundParams, source: str) -> None:
@@ -101,14 +111,16 @@ def _check(params: GroundParams, source: str) -> None:
         raise ConfigError(source, "image", "a path to an image file, or '' for a procedural texture", params.image)
     if not params.image:
         shape = (round(params.width / params.resolution), round(params.length / params.resolution))
-        _check_size(shape, source, "length", f"{params.length} m x {params.width} m at {params.resolution} m/px")
+        about = f"{params.length} m x {params.width} m at {params.resolution} m/px"
+        _check_size(shape, source, "length, width, resolution", about)
 
 
-def _check_size(shape: tuple[int, int], source: str, key: str, got: str) -> None:
-    if min(shape) < MIN_TEXTURE_PIXELS or shape[0] * shape[1] > MAX_TEXTURE_PIXELS:
-        raise ConfigError(
-            source, key, f"a tile of {MIN_TEXTURE_PIXELS} to {MAX_TEXTURE_PIXELS:,} pixels per side/area", f"{got}"
+def _check_size(shape: tuple[int, int], source: str, key: str, about: str) -> None:
+    if min(shape) < MIN_TEXTURE_PIXELS or max(shape) > MAX_REMAP_ROWS or shape[0] * shape[1] > MAX_TEXTURE_PIXELS:
+        expected = (
+            f"a tile of {MIN_TEXTURE_PIXELS} to {MAX_REMAP_ROWS:,} px a side and at most {MAX_TEXTURE_PIXELS:,} px"
         )
+        raise ConfigError(source, key, expected, f"{shape[1]} x {shape[0]} px ({about})")
 
 
 def _finite(value) -> bool:
@@ -134,5 +146,5 @@ def _load(params: GroundParams, source: str) -> np.ndarray:
     image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
     if image is None:
         raise ConfigError(source, "image", "an image file OpenCV can read (PNG, JPEG, BMP, TIFF, ...)", params.image)
-    _check_size(image.shape, source, "image", f"{image.shape[1]} x {image.shape[0]} px in {params.image}")
+    _check_size(image.shape, source, "image", params.image)
     return image.astype(np.float32) / 255.0

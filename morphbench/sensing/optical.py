@@ -1,6 +1,6 @@
 """The optical sensor: each unit films the ground under it, like an optical mouse, and integrates the image motion.
 
-Each frame, for every unit at once:
+Each frame, for every unit (the work is done for many frames and all units at once, see Cost below):
 1. Pose -> view. The sensor sits at the mount point (unit frame) and looks along the unit's own down axis. The
    image's columns run along the unit's forward axis and its rows along its left axis, so forward motion is image
    motion along the columns. Tilt is modelled for a telecentric (orthographic) lens: the image is projected along
@@ -9,20 +9,23 @@ Each frame, for every unit at once:
    where the tilted optical axis meets the ground: the two differ by at most ``liftoff_height * tan(tilt)``. The
    image scale does not change with height (no perspective); instead the sensor sees nothing above
    ``liftoff_height``, as a lifted mouse does.
-2. View -> frame: the ground patch is cut from the texture (``GroundTexture.patches``, one remap for all units),
+2. View -> frame: the ground patch is cut from the texture (``GroundTexture.patches``, one remap for all views),
    optionally blurred, given Gaussian pixel noise and quantised to 8 bits (OpenCV's Lucas-Kanade needs 8-bit
    images, and real sensors have 6-8 bit pixels).
 3. Two frames -> shift: pyramidal Lucas-Kanade tracks the centre of the previous frame into the current one
-   (``ShiftEstimator``), for all units in one OpenCV call on their frames stacked in one image. When tracking fails
-   (no convergence, a shift beyond a quarter of the patch, or a residual that shows a wrong match) the frame
-   reports no motion and counts in ``lost_frames``.
+   (``ShiftEstimator``), for dozens of views per OpenCV call, stacked (and kept apart) in one image.
+   When tracking fails (no convergence, a shift that takes the tracking window out of the patch, or a residual
+   that shows a wrong match) the frame reports no motion and counts in ``lost_frames``. A unit turning between two
+   frames rotates the image about the tracked point, which reads as a small false shift: about 0.04 px per degree
+   of turn on average, at most about 0.07.
 4. Shift -> displacement: the image moves opposite to the unit, so the forward displacement is minus the column
    shift times the pixel size. A frame reports motion only if the sensor was on the ground at both of its ends.
 
-Cost: ``sample`` only records the poses. The frames are rendered and compared in batches, when the displacement is
-read or every ``BATCH_FRAMES`` frames: a few dozen numpy/OpenCV calls then serve dozens of frames of every unit, and
-what remains is about one Lucas-Kanade point, one remap of a patch and one noise addition per unit per frame. The
-result is the same as frame by frame (the noise is drawn at each ``sample``), only cheaper.
+Cost: ``sample`` only records the poses (and draws the noise). The frames are rendered and compared in batches,
+when the displacement is read or when ``BATCH_VIEWS`` unit-frames are waiting: a few dozen numpy/OpenCV calls then
+serve dozens of frames of every unit, and what remains per unit and frame is one Lucas-Kanade point, one patch to
+cut and one noise frame to add, about 15 us. Batching changes a result only by float rounding (at most about 1e-3 px
+per frame).
 """
 
 from __future__ import annotations
@@ -48,8 +51,12 @@ NOISE_BANK_FRAMES = 256
 the frame; each unit's frame instead takes a noise frame from the bank at random. A unit gets the same noise in two
 consecutive frames with probability 1 / NOISE_BANK_FRAMES, when the noise adds no error to that frame's shift,
 which is harmless."""
-BATCH_FRAMES = 64
-"""Most frames held before they are rendered and compared (bounds the memory: 64 x 1 kB per unit at 32 px)."""
+MAX_STACK_ROWS = 2048
+"""px, tallest stacked image per Lucas-Kanade call. OpenCV tracks in float32 image coordinates, which resolve 1e-4 px
+only up to about 2000 px; the call's fixed cost is still shared by many views (39 of 32 px with their gaps)."""
+BATCH_VIEWS = 2048
+"""Most unit-frames held before they are rendered and compared: bounds the batch's memory (about 17 kB per view at
+32 px while it is processed, 35 MB in all)."""
 MAX_RESIDUAL = 0.4
 """Largest accepted Lucas-Kanade residual (mean absolute grey-level difference over the window) as a fraction of the
 window's standard deviation. A wrong match leaves about 0.65 of it (under 0.4 in no test); a right one only the
@@ -82,22 +89,42 @@ class ShiftEstimator:
     """Sub-pixel image shifts between pairs of 8-bit frames, for many views at once.
 
     Pyramidal Lucas-Kanade on the centre point of each view, with a window of about 0.4 patch, in one OpenCV call
-    for all views stacked vertically (on 32 px patches at 1 % noise, about 0.03 px mean error for shifts up to about
-    6 px). A window of half the patch is about 12 % more accurate and 25 % slower.
+    per ``chunk`` views stacked vertically (on 32 px patches at 1 % noise, about 0.03 px mean error for shifts up to
+    about 6 px). A window of half the patch is about 12 % more accurate and 25 % slower.
+
+    The views are stacked with flat grey gaps around them, wide enough that no window, interpolation, derivative or
+    pyramid filter of one view ever reads another's pixels: each view's shift depends on that view alone, not on
+    which views share the call.
     """
+
+    LEVELS = 1
+    """Pyramid levels above the frame: enough for shifts up to the window's travel limit (more changed nothing in
+    tests), and few enough that the gaps stay narrow."""
 
     def __init__(self, patch_size: int, noise_levels: float = 0.0):
         """``noise_levels``: standard deviation of the frames' pixel noise in grey levels (0-255)."""
         self.patch_size, self.noise_levels = patch_size, noise_levels
         side = 2 * patch_size // 5 | 1  # odd, and leaves over a quarter of the patch for the window to move into
         self.window = (side, side)
-        self.levels = max(0, int(math.log2(patch_size / 8)))  # the coarsest level still has 8 px per view
-        self.max_shift = patch_size / 4
-        """px, largest shift accepted: beyond it the window leaves the patch and the estimate is unreliable."""
+        self.max_shift = (patch_size - side) / 2
+        """px, largest shift accepted: beyond it the window leaves the patch. Tracking is nearly always right up to
+        about 0.2 patch (6 px at 32 px: 99.8 % of shifts tracked), then fails more and more often (9 px: 67 %)."""
+        # A window reaches max_shift + side / 2 + 2 (interpolation, derivative) px, about 0.5 patch + 2, beyond its
+        # view's edge at level 0, half that at level 1, where a neighbour's pyramid filter also reaches 1 px into the
+        # gap. Gap and cell are even so that every view meets the pyramid's sampling grid in the same way.
+        self.gap = 2 * (patch_size // 4 + 2)
+        """px, rows of grey before the first view, between views and after the last."""
+        self.cell = self.gap + patch_size + patch_size % 2
+        """px, rows per view in the stacked image: a gap, then the view."""
         self._criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 20, 0.003)
         first = (patch_size - side) // 2
         self._window_slice = slice(first, first + side)
-        self._points = np.zeros((0, 1, 2), np.float32)
+        self.chunk = max(1, (MAX_STACK_ROWS - self.gap) // self.cell)
+        """views per Lucas-Kanade call."""
+        centre = (patch_size - 1) / 2
+        rows = np.arange(self.chunk) * self.cell + self.gap + centre
+        self._points = np.stack([np.full(self.chunk, centre), rows], axis=1).astype(np.float32).reshape(-1, 1, 2)
+        """(chunk, 1, 2) centre points of the views in one spaced stack."""
 
     def __call__(self, previous: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(N, 2) px shift (column, row) of the image content of each view from ``previous`` to ``current``, both
@@ -105,27 +132,35 @@ class ShiftEstimator:
         is 0."""
         size = self.patch_size
         n = previous.shape[0] // size
-        points = self._centres(n)
-        moved, status, residual = cv2.calcOpticalFlowPyrLK(
-            previous, current, points, None, winSize=self.window, maxLevel=self.levels, criteria=self._criteria
-        )
-        shifts = (moved - points)[:, 0]
+        shifts = np.empty((n, 2), np.float32)
+        status = np.empty(n, bool)
+        residual = np.empty(n, np.float32)
+        for first in range(0, n, self.chunk):
+            last = min(first + self.chunk, n)
+            rows, points = slice(first * size, last * size), self._points[: last - first]
+            moved, found, error = cv2.calcOpticalFlowPyrLK(
+                self._spaced(previous[rows]), self._spaced(current[rows]), points, None,
+                winSize=self.window, maxLevel=self.LEVELS, criteria=self._criteria,
+            )
+            shifts[first:last] = (moved - points)[:, 0]
+            status[first:last], residual[first:last] = found[:, 0], error[:, 0]
         window = self._window_slice
         contrast = previous.reshape(n, size, size)[:, window, window].std(axis=(1, 2))
         tracked = (
-            (status[:, 0] == 1)
+            status
             & (np.abs(shifts).max(axis=1) <= self.max_shift)
-            & (residual[:, 0] <= np.maximum(MAX_RESIDUAL * contrast, self.noise_levels))
+            & (residual <= np.maximum(MAX_RESIDUAL * contrast, self.noise_levels))
         )
         return shifts * tracked[:, None], tracked
 
-    def _centres(self, n: int) -> np.ndarray:
-        """(n, 1, 2) float32 centre points of n stacked views (grown on demand, then sliced)."""
-        if len(self._points) < n:
-            centre = (self.patch_size - 1) / 2
-            rows = np.arange(n) * self.patch_size + centre
-            self._points = np.stack([np.full(n, centre), rows], axis=1).astype(np.float32).reshape(n, 1, 2)
-        return self._points[:n]
+    def _spaced(self, frames: np.ndarray) -> np.ndarray:
+        """The stacked views with mid-grey gaps around each."""
+        size = self.patch_size
+        n = frames.shape[0] // size
+        spaced = np.full((n * self.cell + self.gap, size), 128, np.uint8)
+        cells = spaced[: n * self.cell].reshape(n, self.cell, size)
+        cells[:, self.gap : self.gap + size] = frames.reshape(n, size, size)
+        return spaced
 
 
 class OpticalSensor(Sensor):
@@ -152,8 +187,8 @@ class OpticalSensor(Sensor):
         size = params.patch_size
         bank = rng.standard_normal((NOISE_BANK_FRAMES, size, size), dtype=np.float32)
         self._noise_bank = bank * np.float32(255 * params.noise)
+        # Poses and noise frame indices of the frames not rendered yet, oldest first.
         self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
-        """poses and noise frame indices of the frames not rendered yet, oldest first."""
         self._frame: np.ndarray | None = None  # newest rendered frame of every unit, stacked, or None before any
         self._on_ground = np.zeros(n_units, dtype=bool)  # whether each unit's sensor was on the ground in it
         self._columns_moved = np.zeros(n_units)  # px, summed image shift along the forward axis, sign of the unit
@@ -170,7 +205,7 @@ class OpticalSensor(Sensor):
         if self._frame is None and not self._pending:
             raise RuntimeError("OpticalSensor.sample before reset: reset gives the first frame")
         self._record(positions, orientations)
-        if len(self._pending) >= BATCH_FRAMES:
+        if len(self._pending) * self.n_units >= BATCH_VIEWS:
             self._integrate()
 
     def displacement(self) -> np.ndarray:
@@ -189,7 +224,8 @@ class OpticalSensor(Sensor):
     ) -> tuple[np.ndarray, np.ndarray]:
         """What sensors see at M poses (any number, e.g. every unit at several times): the 8-bit frames stacked
         vertically, (M * patch_size, patch_size), and (M,) whether each sensor is on the ground (low enough and
-        facing it). ``noise_frames``: (M,) indices of the noise bank's frames to add (drawn at random if omitted)."""
+        facing it). ``noise_frames``: (M,) indices of the noise bank's frames to add (drawn from the sensor's noise
+        stream if omitted). Poses as in ``views``."""
         affines, on_ground = self.views(positions, orientations)
         size, m = self.params.patch_size, len(affines)
         images = self.ground.patches(affines, size)
@@ -205,8 +241,9 @@ class OpticalSensor(Sensor):
         return cv2.addWeighted(images, 255, noise, 1, 0, dtype=cv2.CV_8U), on_ground
 
     def views(self, positions: np.ndarray, orientations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Where sensors at M poses look: (M, 2, 3) affine maps from image pixel offsets (u, v, 1) to ground points
-        (m), as ``GroundTexture.patches`` takes them, and (M,) whether each sensor is on the ground.
+        """Where sensors at M poses ((M, 3) unit centres in m, (M, 4) unit quaternions x, y, z, w, as PyBullet gives
+        them) look: (M, 2, 3) affine maps from image pixel offsets (u, v, 1) to ground points (m), as
+        ``GroundTexture.patches`` takes them, and (M,) whether each sensor is on the ground.
 
         Projected along the optical axis (the unit's up axis, column 2 of its rotation R), the image axes land on
         the ground as R's first two columns minus (their z / R22) times the third. That 2 x 2 footprint equals
@@ -227,9 +264,8 @@ class OpticalSensor(Sensor):
     def _record(self, positions: np.ndarray, orientations: np.ndarray) -> None:
         positions, orientations = np.array(positions, dtype=float), np.array(orientations, dtype=float)
         if positions.shape != (self.n_units, 3) or orientations.shape != (self.n_units, 4):
-            raise ValueError(
-                f"expected poses of {self.n_units} units, (N, 3) and (N, 4), got {positions.shape} and {orientations.shape}"
-            )
+            raise ValueError(f"expected poses of {self.n_units} units, (N, 3) and (N, 4), "
+                             f"got {positions.shape} and {orientations.shape}")
         # Noise is drawn now, frame by frame, so the results do not depend on when the frames are processed.
         noise_frames = self._rng.integers(NOISE_BANK_FRAMES, size=self.n_units) if self.params.noise else None
         self._pending.append((positions, orientations, noise_frames))

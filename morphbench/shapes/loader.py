@@ -42,6 +42,9 @@ _RANGES = {
     "warmup_cycles": (0, math.inf, True),
     "discard_cycles": (0, math.inf, True),
     "seed": (0, math.inf, True),
+    "blur": (0.0, math.inf, True),
+    "mount_x": (-math.inf, math.inf, True),
+    "mount_y": (-math.inf, math.inf, True),
 }
 
 
@@ -80,16 +83,34 @@ def shape_from_table(table: dict[str, Any], *, source: str, default_name: str = 
 
 
 def params_from_table(cls: type, table: Any, source: str, section: str):
-    """A frozen parameter dataclass from a TOML table, every key checked against the dataclass's fields."""
+    """A frozen parameter dataclass from a TOML table, every key checked against the dataclass's fields; a field
+    that is itself a parameter dataclass is read from a sub-table."""
     if not isinstance(table, dict):
         raise ConfigError(source, section, f"a table of {cls.__name__} fields", table)
     fields = {f.name: f for f in dataclasses.fields(cls)}
     _check_keys(table, set(fields), source, prefix=f"{section}.")
     values = {}
     for key, value in table.items():
-        default = fields[key].default
-        values[key] = _checked_value(value, default, source, f"{section}.{key}", key)
+        default = field_default(fields[key])
+        if dataclasses.is_dataclass(default):
+            values[key] = params_from_table(type(default), value, source, f"{section}.{key}")
+        else:
+            values[key] = _checked_value(value, default, source, f"{section}.{key}", key)
     return cls(**values)
+
+
+def params_from_dict(cls: type, data: dict[str, Any]):
+    """The inverse of ``dataclasses.asdict`` for parameter dataclasses (no validation: the data came from us)."""
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    values = {}
+    for key, value in data.items():
+        default = field_default(fields[key])
+        values[key] = params_from_dict(type(default), value) if dataclasses.is_dataclass(default) else value
+    return cls(**values)
+
+
+def field_default(f: dataclasses.Field) -> Any:
+    return f.default if f.default is not dataclasses.MISSING else f.default_factory()
 
 
 def _checked_value(value: Any, default: Any, source: str, dotted: str, key: str) -> Any:

@@ -24,18 +24,26 @@ class Body:
     """Coulomb coefficient against the ground."""
     dummy: bool
     """True for a passive body: no actuator, no pump, no learner."""
+    mesh: str = ""
+    """'' for a box of ``size``; otherwise the body's geometry: a mesh file path or a trimesh primitive
+    (morphbench.physics.geometry), scaled to fit ``size``."""
 
 
 @dataclass(frozen=True, kw_only=True)
 class Link:
-    """A bellows between two neighbouring bodies, pushing ``front`` away from ``rear`` along +x of the assembly."""
+    """A connection between two neighbouring bodies along the line joining their centres: a bellows driven by a
+    unit's pump, or a passive spacer (``unit`` None) that holds its rest length.
+
+    The link keeps the two bodies aligned (no relative rotation, no sideways offset) and leaves its own axis free
+    for the bellows to extend; its axis points from ``rear`` to ``front``.
+    """
 
     front: int
-    """index into ``Shape.bodies`` of the body the bellows pushes forward."""
+    """index into ``Shape.bodies`` of the body the bellows pushes along +axis."""
     rear: int
-    """index into ``Shape.bodies`` of the body the bellows pushes backward."""
-    unit: int
-    """index into ``Shape.bodies`` of the active unit whose pump drives this bellows."""
+    """index into ``Shape.bodies`` of the body the bellows pushes along -axis."""
+    unit: int | None
+    """index into ``Shape.bodies`` of the active unit whose pump drives this bellows; None for a passive link."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -50,6 +58,9 @@ class Shape:
     links: tuple[Link, ...]
     actuator: ActuatorParams
     description: str = ""
+    heading: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    """unit vector in the assembly frame: the direction the assembly is scored along (every unit's forward axis is
+    its own body x axis, which at rest is the assembly's x axis)."""
 
     @property
     def units(self) -> tuple[int, ...]:
