@@ -8,11 +8,13 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
 
 from morphbench.errors import ConfigError
 from morphbench.params import PHYSICS_PRESETS, SENSOR_KINDS
+from morphbench.render import VideoRecorder, add_render_arguments, render_run, video_params_from_args
 
 EXIT_BAD_INPUT = 2
 
@@ -63,6 +65,13 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--out", help="output directory (default runs/NAME-LEARNER-seedS)")
     run.add_argument("--overwrite", action="store_true", help="replace the records of an earlier run in --out")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_render_arguments(run)
+
+    render = sub.add_parser("render", help="replay a finished run from its records and render it to a video")
+    render.add_argument("run_dir", metavar="RUN_DIR", help="a directory written by morphbench run")
+    render.add_argument("--out", required=True, help="the video to write (.mp4 or .gif)")
+    render.add_argument("--quiet", action="store_true")
+    add_render_arguments(render, output=False)
 
     scan = sub.add_parser("scan", help="Ubar at fixed phases over all phase differences (no learning)")
     scan.add_argument("shape")
@@ -126,12 +135,16 @@ def _cmd_run(args) -> int:
     name = Path(args.config).stem
     learner_name = config.learner.rsplit(":", 1)[-1].lower()
     out = _output_dir(args.out or f"runs/{name}-{learner_name}-seed{config.seed}", "summary.json", args.overwrite)
-    with tqdm(total=config.steps + 1, desc=f"{name} {learner_name}", unit="step", disable=args.quiet) as bar:
+    video = VideoRecorder(None, args.video, video_params_from_args(args)) if args.video else nullcontext()
+    with video as recorder, tqdm(total=config.steps + 1, desc=f"{name} {learner_name}", unit="step",
+                                 disable=args.quiet) as bar:
         def progress(step, records):
             bar.update(1)
             bar.set_postfix_str(f"Ubar {records.last_ubar:+.2f} mm/cycle")
+            if recorder is not None:
+                recorder.progress(step, records)
 
-        records = run(config, progress)
+        records = run(config, progress, recorder)
     records.write(out)
     plots.learning_curve(records.steps(), records.units(), out / "learning_curve.png",
                          title=f"{name}, {learner_name}, seed {config.seed}")
@@ -141,6 +154,21 @@ def _cmd_run(args) -> int:
     if len(summary["final_ubar_by_piece"]) > 1:
         print("  pieces: " + ", ".join(f"{k}: {v:+.2f}" for k, v in summary["final_ubar_by_piece"].items()))
     print(f"records in {out}/ (units.parquet, steps.parquet, pieces.parquet, summary.json, learning_curve.png)")
+    if args.video:
+        print(f"video in {args.video}")
+    return 0
+
+
+def _cmd_render(args) -> int:
+    from tqdm import tqdm
+
+    with tqdm(desc=f"replay {args.run_dir}", unit="step", disable=args.quiet) as bar:
+        def progress(done, total):
+            bar.total = total
+            bar.update(done - bar.n)
+
+        path = render_run(args.run_dir, args.out, video_params_from_args(args), progress)
+    print(f"video in {path}")
     return 0
 
 
@@ -181,7 +209,7 @@ def _cmd_scan(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
-        return {"run": _cmd_run, "scan": _cmd_scan}[args.command](args)
+        return {"run": _cmd_run, "scan": _cmd_scan, "render": _cmd_render}[args.command](args)
     except ConfigError as exc:
         print(f"morphbench: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

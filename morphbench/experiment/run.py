@@ -9,6 +9,7 @@ import dataclasses
 import functools
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -54,7 +55,10 @@ class RunConfig:
     def to_dict(self) -> dict:
         """JSON-ready: the shape by its file, every parameter by field (what summary.json stores)."""
         data = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
-        data["shape"] = {"name": self.shape.name, "source": self.shape.source, "n_units": self.shape.n_units}
+        # The shape file by absolute path, so that a run can be replayed from anywhere.
+        source = Path(self.shape.source)
+        data["shape"] = {"name": self.shape.name, "source": str(source.resolve()) if source.is_file() else str(source),
+                         "n_units": self.shape.n_units}
         for key in ("learner_params", "sensor", "environment", "physics"):
             data[key] = dataclasses.asdict(data[key])
         data["events"] = [{k: v for k, v in dataclasses.asdict(e).items() if v is not None} for e in self.events]

@@ -1,0 +1,109 @@
+"""Video of a finished run: replay its configuration (the simulation is deterministic) with a recorder attached.
+
+The replay is checked against the run's own records: if its learning steps do not give the Ubar that
+``steps.parquet`` recorded (the shape file or the learner changed since, or another PyBullet build), no video is
+written and a ConfigError says where they part.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from morphbench.errors import ConfigError
+from morphbench.experiment import RunConfig, run
+from morphbench.params import VideoParams
+from morphbench.render.video import VideoRecorder, check_output_path, check_video_params
+
+REPLAY_TOLERANCE = 1e-6
+"""mm/cycle: a replayed step's Ubar may differ from the recorded one by this much (Parquet stores the exact float)."""
+
+
+class _Done(Exception):
+    """Raised from the progress callback once the last step the video shows has been simulated."""
+
+
+def load_run(run_dir: str | os.PathLike) -> tuple[RunConfig, pd.DataFrame]:
+    """The configuration and recorded ``steps.parquet`` table of a finished run; ConfigError if ``run_dir`` is not a
+    run directory written by ``morphbench run``."""
+    path = Path(run_dir)
+    expected = "a run directory written by `morphbench run` (summary.json and steps.parquet)"
+    if not path.is_dir():
+        raise ConfigError(str(run_dir), "(directory)", expected, "no such directory")
+    summary_file, steps_file = path / "summary.json", path / "steps.parquet"
+    for file in (summary_file, steps_file):
+        if not file.is_file():
+            raise ConfigError(str(run_dir), file.name, expected, "missing")
+    try:
+        summary = json.loads(summary_file.read_text(encoding="utf-8"))
+        config_data = summary["config"]
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError) as exc:
+        raise ConfigError(str(summary_file), "config", f"a summary.json written by morphbench ({exc})") from None
+    config = RunConfig.from_dict(config_data, source=str(summary_file))
+    try:
+        steps = pd.read_parquet(steps_file)
+    except Exception as exc:  # pyarrow raises its own types for a damaged file
+        raise ConfigError(str(steps_file), "(file)", f"a steps table written by morphbench ({exc})") from None
+    if not {"step", "ubar"} <= set(steps.columns):
+        raise ConfigError(str(steps_file), "columns", "a steps table with 'step' and 'ubar'", list(steps.columns))
+    return config, steps
+
+
+def render_run(run_dir: str | os.PathLike, out_path: str | os.PathLike, params: VideoParams = VideoParams(),
+               progress: Callable[[int, int], None] | None = None) -> Path:
+    """Replay the run in ``run_dir`` and write its video to ``out_path`` (.mp4 or .gif); returns the path.
+
+    Only the learning steps up to the last one the video shows (``params.steps``) are simulated. ``progress(done,
+    total)``, if given, is called after each replayed learning step (for a progress bar). Bad input (run directory,
+    output path, parameters, a steps range outside the run) and a replay that does not reproduce the recorded
+    Ubar raise ConfigError, and then no video is written.
+    """
+    check_video_params(params)
+    check_output_path(out_path, "--out")
+    config, recorded = load_run(run_dir)
+    last = config.steps
+    if params.steps is not None:
+        first, wanted = params.steps
+        if first > config.steps:
+            raise ConfigError("--video-steps", "steps", f"a range within the run's steps 0 to {config.steps}",
+                              params.steps)
+        last = config.steps if wanted is None else min(wanted, config.steps)
+    total = last + 1
+    replayed = []
+
+    with VideoRecorder(None, out_path, params, source="--out") as recorder:
+        def on_step(step, records):
+            recorder.progress(step, records)
+            if progress is not None:
+                progress(step + 1, total)
+            if step >= last:
+                replayed.append(records)
+                raise _Done
+
+        try:
+            replayed.append(run(config, on_step, recorder))
+        except _Done:
+            pass
+        _check_replay(run_dir, recorded, replayed[0].steps(), last)
+    return recorder.path
+
+
+def _check_replay(run_dir, recorded: pd.DataFrame, replayed: pd.DataFrame, last: int) -> None:
+    """ConfigError at the first step whose replayed Ubar differs from the recorded one."""
+    expected = recorded[recorded.step <= last].sort_values("step")
+    if list(expected.step) != list(replayed.step):
+        raise ConfigError(str(run_dir), "steps.parquet", f"the steps 0 to {last} the replay simulated",
+                          f"steps {list(expected.step)[:5]}...")
+    a, b = expected.ubar.to_numpy(float), replayed.ubar.to_numpy(float)
+    same = np.isclose(a, b, rtol=0, atol=REPLAY_TOLERANCE, equal_nan=True)
+    if not same.all():
+        k = int(np.flatnonzero(~same)[0])
+        raise ConfigError(
+            str(run_dir), "steps.parquet",
+            "a run that its summary.json replays exactly (has the shape file, the learner or PyBullet changed since?)",
+            f"step {int(expected.step.iloc[k])}: recorded Ubar {a[k]:+.6f} mm/cycle, replayed {b[k]:+.6f}")
