@@ -14,6 +14,7 @@ from pathlib import Path
 
 from morphbench.errors import ConfigError
 from morphbench.params import PHYSICS_PRESETS, SENSOR_KINDS
+from morphbench.shapes.cli import add_shapes_commands
 from morphbench.render import VideoRecorder, add_render_arguments, render_run, video_params_from_args
 
 EXIT_BAD_INPUT = 2
@@ -66,12 +67,14 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--overwrite", action="store_true", help="replace the records of an earlier run in --out")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     add_render_arguments(run)
+    run.set_defaults(func=_cmd_run)
 
     render = sub.add_parser("render", help="replay a finished run from its records and render it to a video")
     render.add_argument("run_dir", metavar="RUN_DIR", help="a directory written by morphbench run")
     render.add_argument("--out", required=True, help="the video to write (.mp4 or .gif)")
     render.add_argument("--quiet", action="store_true")
     add_render_arguments(render, output=False)
+    render.set_defaults(func=_cmd_render)
 
     scan = sub.add_parser("scan", help="Ubar at fixed phases over all phase differences (no learning)")
     scan.add_argument("shape")
@@ -84,6 +87,8 @@ def _parser() -> argparse.ArgumentParser:
     scan.add_argument("--seed", type=_number(0, low_inclusive=True, integer=True), default=0)
     scan.add_argument("--workers", type=_number(1, low_inclusive=True, integer=True), default=1)
     _add_physics(scan, default="fast")
+    scan.set_defaults(func=_cmd_scan)
+    add_shapes_commands(sub)
     scan.add_argument("--out", help="output directory (default runs/scan-SHAPE)")
     scan.add_argument("--overwrite", action="store_true", help="replace an earlier scan in --out")
     scan.add_argument("--quiet", action="store_true")
@@ -209,7 +214,7 @@ def _cmd_scan(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
-        return {"run": _cmd_run, "scan": _cmd_scan, "render": _cmd_render}[args.command](args)
+        return args.func(args)
     except ConfigError as exc:
         print(f"morphbench: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

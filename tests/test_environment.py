@@ -89,11 +89,13 @@ def test_pump_vibration_breaks_the_forward_backward_symmetry():
 
 
 def test_a_friction_drop_changes_the_landscape():
+    """Less friction means less load on each bellows, so it gives way less (mu m g / k) and every gait covers more
+    ground: the landscape is stretched, forward and backward alike."""
     shape = chain(2)
-    before = [velocity_at(shape, [0.0, d], cycles=4).mean() for d in (0.3, 0.4, 0.6)]
-    after = [velocity_at(shape, [0.0, d], cycles=4, environment=EnvironmentParams(friction_scale=0.4)).mean()
-             for d in (0.3, 0.4, 0.6)]
-    assert np.max(np.abs(np.subtract(before, after))) > 1.0, (before, after)
+    before = np.array([velocity_at(shape, [0.0, d], cycles=4).mean() for d in (0.3, 0.4, 0.6)])
+    after = np.array([velocity_at(shape, [0.0, d], cycles=4, environment=EnvironmentParams(friction_scale=0.4)).mean()
+                      for d in (0.3, 0.4, 0.6)])
+    assert np.all(np.abs(after) > np.abs(before) + 0.3), (before, after)
 
 
 def test_every_event_is_recorded_at_its_step_and_acts():

@@ -20,13 +20,12 @@ import pybullet as pb
 
 from morphbench.params import DAMAGE_MODES, FAST_PHYSICS, EnvironmentParams, PhysicsParams
 from morphbench.physics.friction import FrictionField
+from morphbench.physics.geometry import body_shapes
 from morphbench.physics.pressure import pressure_trajectory
 from morphbench.shapes.model import Shape
 
 GRAVITY = 9.81  # m/s^2
 GROUND_FRICTION = 1.0  # Bullet multiplies the two bodies' coefficients, so a body's own value is the real one
-UNIT_COLOUR = (0.20, 0.45, 0.80, 1.0)
-DUMMY_COLOUR = (0.55, 0.55, 0.55, 1.0)
 FIELD_UPDATE_PERIOD = 0.1  # s: units move well under a millimetre in this time, the field varies over centimetres
 
 
@@ -54,6 +53,8 @@ class World:
                                    dtype=int)
         """for each link, the index (in unit order) of the unit whose pump drives it; -1 for a passive link."""
         self._actuated = self.link_units >= 0
+        self._strokes = np.array([shape.actuator.stroke if link.stroke is None else link.stroke for link in shape.links])
+        """m, each bellows' stroke (a unit may override the shape's)."""
         self._alignments = [self._align(link) for link in shape.links]
         self.intact = np.ones(len(shape.links), dtype=bool)
         """for each link, False once it has been cut."""
@@ -75,19 +76,19 @@ class World:
         self._unit_bodies = np.array(shape.units, dtype=int)
         self._applied_friction = self._base_friction.copy()
         self._apply_friction(self.poses()[0], np.zeros(shape.n_units, dtype=bool))
-        for _ in range(max(1, round(physics.settle_time / self.tick))):
-            pb.stepSimulation(physicsClientId=c)
+        # Settle with the bellows' springs holding their rest lengths (a stacked layer rests on them, not on the
+        # layer below), then start the pumps' clock.
+        self.time = 0.0
+        self.advance(max(1, round(physics.settle_time / self.tick)), pumps=False)
         self.time = 0.0
         """s, time since the end of settling: the pumps' clock."""
 
     def _add_body(self, body) -> int:
-        c = self.client
-        half = [s / 2 for s in body.size]
-        collision = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=c)
-        colour = DUMMY_COLOUR if body.dummy else UNIT_COLOUR
-        visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=colour, physicsClientId=c)
-        uid = pb.createMultiBody(body.mass, collision, visual, basePosition=body.position, physicsClientId=c)
-        pb.changeDynamics(uid, -1, lateralFriction=body.friction, physicsClientId=c)
+        c, shapes = self.client, body_shapes(self.client, body)
+        uid = pb.createMultiBody(body.mass, shapes.collision, shapes.visual, basePosition=body.position,
+                                 physicsClientId=c)
+        pb.changeDynamics(uid, -1, lateralFriction=body.friction, localInertiaDiagonal=shapes.inertia,
+                          physicsClientId=c)
         return uid
 
     def _align(self, link) -> int:
@@ -120,9 +121,9 @@ class World:
         """How many control ticks make ``duration`` seconds (durations are whole numbers of ticks)."""
         return max(0, round(duration / self.tick))
 
-    def advance(self, n_ticks: int, on_tick=None) -> None:
+    def advance(self, n_ticks: int, on_tick=None, pumps: bool = True) -> None:
         """Run ``n_ticks`` physics ticks. ``on_tick(k)`` is called after tick k (0-based) if given, with ``time`` and
-        ``pressure`` already those at the end of that tick."""
+        ``pressure`` already those at the end of that tick. With ``pumps=False`` every bellows stays empty."""
         if n_ticks <= 0:
             return
         start = self.time
@@ -130,9 +131,9 @@ class World:
         # A passive link has no pump: its pressure trajectory is computed (phase 0) and then zeroed.
         trajectory = pressure_trajectory(
             self.pressure, self.phases[np.maximum(self.link_units, 0)], start, self.tick, n_ticks, actuator
-        ) * self._actuated
+        ) * (self._actuated if pumps else 0.0)
         rest_lengths = self._rest_lengths(trajectory).tolist()
-        friction_ticks, pumping = self._friction_schedule(start, n_ticks)
+        friction_ticks, pumping = self._friction_schedule(start, n_ticks) if pumps else (set(), None)
         stiffness, damping, cap, dt = actuator.stiffness, actuator.damping, actuator.max_force, self.tick
         c, bodies, lengths = self.client, self.bodies, self._lengths
         links = [(i, front, rear) for i, (front, rear) in enumerate(self._links) if self.intact[i]]
@@ -162,7 +163,7 @@ class World:
         """(n_ticks, n_links) rest length of each bellows: a damaged one cannot inflate, a stuck one keeps its length."""
         extends = np.array([u >= 0 and self.damage[u] not in ("no-inflate", "dead") for u in self.link_units],
                            dtype=float)
-        rest = self._empty_pitch + self.shape.actuator.stroke * trajectory * extends
+        rest = self._empty_pitch + self._strokes * trajectory * extends
         stuck = ~np.isnan(self._stuck_length)
         rest[:, stuck] = self._stuck_length[stuck]
         return rest
@@ -210,7 +211,7 @@ class World:
             return
         self.damage[unit] = mode
         driven = self.link_units == unit
-        self._stuck_length[driven] = (self._empty_pitch + self.shape.actuator.stroke * self.pressure)[driven] \
+        self._stuck_length[driven] = (self._empty_pitch + self._strokes * self.pressure)[driven] \
             if mode == "stuck" else np.nan
 
     def cut(self, link: int) -> None:

@@ -1,6 +1,22 @@
 """Morphologies: the assembly as validated plain data, loaded from the TOML files in ``shapes/``."""
 
-from morphbench.shapes.loader import load_shape, params_from_dict, params_from_table, read_toml, shape_from_table
+from morphbench.shapes.checks import check_shape, components, is_connected
+from morphbench.shapes.export import body_mesh, draw, export_scene, mass_properties, scene
+from morphbench.shapes.generators import CustomLink, CustomUnit, chain, custom, grid, lattice, site_position
+from morphbench.shapes.loader import (
+    GENERATORS,
+    load_shape,
+    params_from_dict,
+    params_from_table,
+    read_toml,
+    shape_from_table,
+)
 from morphbench.shapes.model import Body, Link, Shape
+from morphbench.shapes.transforms import cut, cut_apart, pieces, remove_links, shuffle
 
-__all__ = ["Body", "Link", "Shape", "load_shape", "params_from_dict", "params_from_table", "read_toml", "shape_from_table"]
+__all__ = [
+    "Body", "CustomLink", "CustomUnit", "GENERATORS", "Link", "Shape", "body_mesh", "chain", "check_shape", "components",
+    "custom", "cut", "cut_apart", "draw", "export_scene", "grid", "is_connected", "lattice", "load_shape",
+    "mass_properties", "params_from_dict", "params_from_table", "pieces", "read_toml", "remove_links", "scene",
+    "shape_from_table", "shuffle", "site_position",
+]

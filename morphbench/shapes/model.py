@@ -44,6 +44,9 @@ class Link:
     """index into ``Shape.bodies`` of the body the bellows pushes along -axis."""
     unit: int | None
     """index into ``Shape.bodies`` of the active unit whose pump drives this bellows; None for a passive link."""
+    stroke: float | None = None
+    """m, this bellows' extension at full pressure with no load, when its unit overrides the shape's
+    ``actuator.stroke`` (a per-unit ``stroke`` in a custom morphology file); None takes ``actuator.stroke``."""
 
 
 @dataclass(frozen=True, kw_only=True)

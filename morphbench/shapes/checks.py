@@ -1,0 +1,126 @@
+"""Structural checks of a ``Shape`` (pure data, no simulator): what every assembly must satisfy to be built.
+
+``check_shape`` raises ``ConfigError`` (source = the shape's source) for
+- a link to a body that does not exist, a body linked to itself, or the same two bodies linked twice (``links[i]``);
+- a link whose bodies are not lattice neighbours: their centres must be apart along exactly one axis, by the
+  bodies' extent plus ``actuator.rest_gap``, with ``front`` at the larger coordinate (``links[i]``);
+- a link driven by a body that is not one of its two, or by a dummy (``links[i].unit``);
+- two bodies that overlap (``bodies[i]``);
+- a heading that is not a unit vector (``heading``);
+- a disconnected assembly (``links``), unless ``allow_disconnected`` (a shape cut on purpose).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from morphbench.errors import ConfigError
+from morphbench.shapes.model import Shape
+
+TOLERANCE = 1e-9
+"""m, how far positions may be off the lattice (rounding)."""
+
+
+def components(shape: Shape) -> list[list[int]]:
+    """Connected groups of body indices over the shape's links, each sorted, the group holding body 0 first (the
+    order of ``World.pieces``)."""
+    parent = list(range(len(shape.bodies)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for link in shape.links:
+        parent[root(link.front)] = root(link.rear)
+    groups: dict[int, list[int]] = {}
+    for body in range(len(shape.bodies)):
+        groups.setdefault(root(body), []).append(body)
+    return sorted(groups.values())
+
+
+def is_connected(shape: Shape) -> bool:
+    """True when every body is joined to every other through links (a shape of one body is connected)."""
+    return len(components(shape)) <= 1
+
+
+def link_axis(shape: Shape, index: int) -> int:
+    """0, 1 or 2: the lattice axis (x, y, z) of link ``index``, along which its rear body lies behind its front."""
+    link = shape.links[index]
+    d = np.subtract(shape.bodies[link.front].position, shape.bodies[link.rear].position)
+    return int(np.argmax(np.abs(d)))
+
+
+def check_shape(shape: Shape, *, allow_disconnected: bool = False,
+                body_label: Callable[[int], str] = lambda i: f"body {i}") -> Shape:
+    """Raise ConfigError if the shape cannot be built as a lattice assembly (module docstring); return it if it can.
+
+    ``body_label(i)`` names body i in messages (the loader names the ``[[units]]`` tables of a custom file).
+    """
+    source, n = shape.source, len(shape.bodies)
+    heading = np.asarray(shape.heading, dtype=float)
+    if heading.shape != (3,) or not np.all(np.isfinite(heading)) or abs(np.linalg.norm(heading) - 1) > 1e-6:
+        raise ConfigError(source, "heading", "a unit vector [x, y, z]", shape.heading)
+    seen: dict[frozenset, int] = {}
+    gap = shape.actuator.rest_gap
+    for i, link in enumerate(shape.links):
+        key = f"links[{i}]"
+        if not (0 <= link.front < n and 0 <= link.rear < n):
+            raise ConfigError(source, key, f"two body indices in 0..{n - 1}", (link.front, link.rear))
+        if link.front == link.rear:
+            raise ConfigError(source, key, "two different bodies", (link.front, link.rear))
+        pair = frozenset((link.front, link.rear))
+        if pair in seen:
+            raise ConfigError(source, key, f"a pair of bodies not already linked (links[{seen[pair]}])",
+                              (link.front, link.rear))
+        seen[pair] = i
+        front, rear = shape.bodies[link.front], shape.bodies[link.rear]
+        d = np.subtract(front.position, rear.position)
+        axis = int(np.argmax(np.abs(d)))
+        pitch = (front.size[axis] + rear.size[axis]) / 2 + gap
+        others = np.delete(np.abs(d), axis)
+        if np.any(others > TOLERANCE) or abs(d[axis] - pitch) > TOLERANCE * max(1.0, pitch):
+            raise ConfigError(
+                source, key,
+                f"lattice neighbours: the front centre {pitch:g} m ahead of the rear one along exactly one axis "
+                f"({body_label(link.front)} is at {_fmt(front.position)}, {body_label(link.rear)} at "
+                f"{_fmt(rear.position)})", (link.front, link.rear))
+        if link.unit is not None:
+            if link.unit not in (link.front, link.rear):
+                raise ConfigError(source, f"{key}.unit", f"one of the link's two bodies ({body_label(link.front)} or "
+                                  f"{body_label(link.rear)}), or None for a passive link", link.unit)
+            if shape.bodies[link.unit].dummy:
+                raise ConfigError(source, f"{key}.unit", f"an active unit: {body_label(link.unit)} is a dummy",
+                                  link.unit)
+        if link.stroke is not None and (link.unit is None or not np.isfinite(link.stroke) or link.stroke <= 0):
+            raise ConfigError(source, f"{key}.stroke", "a stroke > 0 on an actuated link, or None", link.stroke)
+    _check_overlaps(shape, body_label)
+    if not allow_disconnected:
+        groups = components(shape)
+        if len(groups) > 1:
+            stray = [body for group in groups[1:] for body in group]
+            listed = ", ".join(body_label(b) for b in stray[:6]) + (", ..." if len(stray) > 6 else "")
+            raise ConfigError(source, "links", f"a connected assembly, every body joined to {body_label(0)} through "
+                              f"links (not joined: {listed})")
+    return shape
+
+
+def _check_overlaps(shape: Shape, body_label: Callable[[int], str]) -> None:
+    if len(shape.bodies) < 2:
+        return
+    centres = np.array([b.position for b in shape.bodies])
+    half = np.array([b.size for b in shape.bodies]) / 2
+    for j in range(1, len(centres)):  # bodies i < j; boxes overlap when apart by less than their half-sizes everywhere
+        apart = np.abs(centres[:j] - centres[j]) - (half[:j] + half[j])
+        hits = np.flatnonzero(np.all(apart < -TOLERANCE, axis=1))
+        if hits.size:
+            i = int(hits[0])
+            raise ConfigError(shape.source, f"bodies[{j}]", f"a place of its own: it overlaps {body_label(i)} "
+                              f"(centres {_fmt(centres[i])} and {_fmt(centres[j])})", body_label(j))
+
+
+def _fmt(position) -> str:
+    return "(" + ", ".join(f"{float(v):.4g}" for v in position) + ")"

@@ -1,0 +1,144 @@
+"""``morphbench shapes list|check|export|show``: look at morphology files without simulating them.
+
+``add_shapes_commands(subparsers)`` adds the ``shapes`` command to the main parser's sub-parsers; each sub-command
+sets ``func(args) -> int`` (0 on success) and raises ``ConfigError`` for bad input (the main command prints it on one
+line and exits with 2). ``python -m morphbench.shapes.cli ...`` runs the same commands on their own.
+
+    morphbench shapes list [DIR]                 name, units, bodies, links, description of every DIR/*.toml
+    morphbench shapes check FILE...              validate; one OK line per file, exit 2 at the first bad one
+    morphbench shapes export FILE --out OUT.glb  a 3-D scene (.glb, .gltf, .obj, .ply): bodies and links
+    morphbench shapes show FILE --png OUT.png    a top view and a side view
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from morphbench.errors import ConfigError
+from morphbench.shapes.checks import components
+from morphbench.shapes.export import SCENE_SUFFIXES
+from morphbench.shapes.loader import load_shape
+
+EXIT_BAD_INPUT = 2
+PACKAGE_SHAPES = Path(__file__).resolve().parents[2] / "shapes"
+"""The shipped library (next to the package in a source checkout)."""
+
+
+def default_directory() -> Path:
+    """``shapes/`` in the working directory if there is one, else the shipped library."""
+    local = Path("shapes")
+    return local if local.is_dir() else PACKAGE_SHAPES
+
+
+def add_shapes_commands(subparsers) -> argparse.ArgumentParser:
+    """Add ``shapes`` with its sub-commands to ``subparsers`` (from ``add_subparsers``); return its parser."""
+    shapes = subparsers.add_parser("shapes", help="list, check, export or draw morphology files (no simulation)",
+                                   description="Look at morphology files without simulating them.")
+    sub = shapes.add_subparsers(dest="shapes_command", required=True, metavar="{list,check,export,show}")
+
+    listing = sub.add_parser("list", help="name, units, bodies, links and description of every file in a directory")
+    listing.add_argument("directory", nargs="?", default=None,
+                         help="directory of morphology files (default: ./shapes, else the shipped library)")
+    listing.set_defaults(func=cmd_list)
+
+    check = sub.add_parser("check", help="validate morphology files (exit 2 at the first bad one)")
+    check.add_argument("files", nargs="+", metavar="FILE")
+    check.set_defaults(func=cmd_check)
+
+    export = sub.add_parser("export", help="write a 3-D scene of a shape: one mesh per body, a cylinder per link")
+    export.add_argument("file", metavar="FILE")
+    export.add_argument("--out", required=True, help=f"output file ({', '.join(SCENE_SUFFIXES)})")
+    export.set_defaults(func=cmd_export)
+
+    show = sub.add_parser("show", help="draw a shape at rest (top and side view) to a PNG")
+    show.add_argument("file", metavar="FILE")
+    show.add_argument("--png", required=True, help="output picture (.png)")
+    show.set_defaults(func=cmd_show)
+    return shapes
+
+
+def _counts(shape) -> str:
+    return f"{shape.n_units} units, {len(shape.bodies)} bodies, {len(shape.links)} links"
+
+
+def cmd_list(args) -> int:
+    directory = Path(args.directory) if args.directory is not None else default_directory()
+    if not directory.is_dir():
+        raise ConfigError("shapes list", "DIRECTORY", "a directory of morphology files (.toml)", str(directory))
+    files = sorted(directory.glob("*.toml"))
+    if not files:
+        raise ConfigError("shapes list", "DIRECTORY", "a directory with at least one .toml file", str(directory))
+    shapes = [load_shape(path) for path in files]  # a bad file stops the listing with its one-line message
+    width = max(len(s.name) for s in shapes)
+    print(f"{'name':<{width}}  units  bodies  links  description")
+    for s in shapes:
+        print(f"{s.name:<{width}}  {s.n_units:>5}  {len(s.bodies):>6}  {len(s.links):>5}  {s.description}")
+    return 0
+
+
+def cmd_check(args) -> int:
+    for file in args.files:
+        shape = load_shape(file)
+        n_pieces = len(components(shape))
+        pieces = f", {n_pieces} pieces (cut)" if n_pieces > 1 else ""
+        print(f"OK {file}: {shape.name}, {_counts(shape)}{pieces}")
+    return 0
+
+
+def cmd_export(args) -> int:
+    from morphbench.shapes.export import export_scene
+
+    out = Path(args.out)
+    if out.suffix.lower() not in SCENE_SUFFIXES:
+        raise ConfigError("--out", args.out, f"a file name ending in {', '.join(SCENE_SUFFIXES)}")
+    if out.is_dir():
+        raise ConfigError("--out", args.out, "a file name (this is a directory)")
+    shape = load_shape(args.file)
+    try:
+        export_scene(shape, out)
+    except OSError as exc:
+        raise ConfigError("--out", args.out, f"a file that can be written ({exc.strerror or exc})") from None
+    print(f"{shape.name}: {_counts(shape)} -> {out}")
+    return 0
+
+
+def cmd_show(args) -> int:
+    from morphbench.shapes.export import draw
+
+    out = Path(args.png)
+    if out.suffix.lower() != ".png":
+        raise ConfigError("--png", args.png, "a file name ending in .png")
+    if out.is_dir():
+        raise ConfigError("--png", args.png, "a file name (this is a directory)")
+    shape = load_shape(args.file)
+    try:
+        draw(shape, out)
+    except OSError as exc:
+        raise ConfigError("--png", args.png, f"a file that can be written ({exc.strerror or exc})") from None
+    print(f"{shape.name}: {_counts(shape)} -> {out}")
+    return 0
+
+
+class _Parser(argparse.ArgumentParser):
+    """A bad option is one line and exit 2, as in ``morphbench.cli``."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The ``shapes`` commands on their own: ``python -m morphbench.shapes.cli shapes list``."""
+    parser = _Parser(prog="morphbench")
+    add_shapes_commands(parser.add_subparsers(dest="command", required=True, parser_class=_Parser))
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except ConfigError as exc:
+        print(f"morphbench: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+if __name__ == "__main__":
+    sys.exit(main())
