@@ -22,6 +22,7 @@ from morphbench.params import DAMAGE_MODES, FAST_PHYSICS, EnvironmentParams, Phy
 from morphbench.physics.friction import FrictionField
 from morphbench.physics.geometry import body_shapes
 from morphbench.physics.pressure import pressure_trajectory
+from morphbench.shapes.checks import connected_groups
 from morphbench.shapes.model import Shape
 
 GRAVITY = 9.81  # m/s^2
@@ -222,21 +223,7 @@ class World:
 
     def pieces(self) -> list[list[int]]:
         """Connected groups of body indices over the intact links, the piece holding body 0 first."""
-        parent = list(range(len(self.bodies)))
-
-        def root(i: int) -> int:
-            while parent[i] != i:
-                parent[i] = parent[parent[i]]
-                i = parent[i]
-            return i
-
-        for i, (front, rear) in enumerate(self._links):
-            if self.intact[i]:
-                parent[root(front)] = root(rear)
-        groups: dict[int, list[int]] = {}
-        for body in range(len(self.bodies)):
-            groups.setdefault(root(body), []).append(body)
-        return sorted(groups.values())
+        return connected_groups(len(self.bodies), [link for link, intact in zip(self._links, self.intact) if intact])
 
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
         """Positions (N, 3, m) and orientations (N, 4 quaternions x, y, z, w) of the given bodies (default all)."""

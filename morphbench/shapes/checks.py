@@ -26,7 +26,12 @@ TOLERANCE = 1e-9
 def components(shape: Shape) -> list[list[int]]:
     """Connected groups of body indices over the shape's links, each sorted, the group holding body 0 first (the
     order of ``World.pieces``)."""
-    parent = list(range(len(shape.bodies)))
+    return connected_groups(len(shape.bodies), [(link.front, link.rear) for link in shape.links])
+
+
+def connected_groups(n: int, pairs) -> list[list[int]]:
+    """Connected groups of the nodes 0..n-1 over the given (a, b) pairs, each sorted, sorted by their first node."""
+    parent = list(range(n))
 
     def root(i: int) -> int:
         while parent[i] != i:
@@ -34,11 +39,11 @@ def components(shape: Shape) -> list[list[int]]:
             i = parent[i]
         return i
 
-    for link in shape.links:
-        parent[root(link.front)] = root(link.rear)
+    for a, b in pairs:
+        parent[root(a)] = root(b)
     groups: dict[int, list[int]] = {}
-    for body in range(len(shape.bodies)):
-        groups.setdefault(root(body), []).append(body)
+    for node in range(n):
+        groups.setdefault(root(node), []).append(node)
     return sorted(groups.values())
 
 
