@@ -15,6 +15,7 @@ from pathlib import Path
 from morphbench.errors import ConfigError
 from morphbench.params import PHYSICS_PRESETS, SENSOR_KINDS
 from morphbench.shapes.cli import add_shapes_commands
+from morphbench.bench import add_bench_commands
 from morphbench.render import VideoRecorder, add_render_arguments, render_run, video_params_from_args
 
 EXIT_BAD_INPUT = 2
@@ -89,6 +90,7 @@ def _parser() -> argparse.ArgumentParser:
     _add_physics(scan, default="fast")
     scan.set_defaults(func=_cmd_scan)
     add_shapes_commands(sub)
+    add_bench_commands(sub)
     scan.add_argument("--out", help="output directory (default runs/scan-SHAPE)")
     scan.add_argument("--overwrite", action="store_true", help="replace an earlier scan in --out")
     scan.add_argument("--quiet", action="store_true")

@@ -1,0 +1,95 @@
+"""The ``bench`` and ``report`` subcommands, added to the ``morphbench`` command by ``add_bench_commands``.
+
+    morphbench bench SUITE --out DIR [--workers N | --scheduler ADDRESS] [--resume] [--retry-failed] [--quiet]
+    morphbench report DIR
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+EXIT_FAILED_RUNS = 1
+EXIT_INTERRUPTED = 130
+
+
+def add_bench_commands(subparsers) -> None:
+    """Add ``bench`` and ``report`` to an argparse sub-parser collection; each sets ``func(args) -> exit code``."""
+    bench = subparsers.add_parser(
+        "bench", help="run a suite of learning runs and scans into a results directory, then report",
+        description="Run every run and scan of a suite file that the results directory does not hold yet (a local "
+                    "process pool by default, or a Dask cluster), write them to DIR as Parquet, then DIR/report.md.")
+    bench.add_argument("suite", help="suite file, e.g. benchmarks/smoke.toml")
+    bench.add_argument("--out", required=True, help="results directory; run again to resume an interrupted suite")
+    where = bench.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_positive_int, default=None,
+                       help="local worker processes (default: the cores available)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run on a Dask distributed cluster, e.g. tcp://10.0.0.5:8786 (needs morphbench[dask])")
+    bench.add_argument("--resume", action="store_true",
+                       help="use DIR even if it holds another suite or another version of this one (its finished "
+                            "runs are reused)")
+    bench.add_argument("--retry-failed", action="store_true", help="run again the runs that failed last time")
+    bench.add_argument("--no-report", action="store_true", help="write the tables but not the figures and report.md")
+    bench.add_argument("--quiet", action="store_true", help="no progress bar")
+    bench.set_defaults(func=cmd_bench)
+
+    report = subparsers.add_parser("report", help="rebuild the tables, figures and report.md of a results directory",
+                                   description="Rebuild DIR's consolidated tables, metrics, figures and report.md "
+                                               "from its finished runs (no simulation).")
+    report.add_argument("dir", help="results directory written by 'morphbench bench'")
+    report.set_defaults(func=cmd_report)
+
+
+def cmd_bench(args) -> int:
+    from morphbench.bench.executors import DaskExecutor, LocalExecutor, WorkerLost, connect
+    from morphbench.bench.report import build_report
+    from morphbench.bench.runner import run_suite
+    from morphbench.bench.suite import load_suite
+
+    suite = load_suite(args.suite)
+    client = connect(args.scheduler) if args.scheduler else None  # a bad address fails before anything runs
+    executor = DaskExecutor(client) if client is not None else LocalExecutor(args.workers)
+    try:
+        outcome = run_suite(suite, args.out, executor, resume=args.resume, retry_failed=args.retry_failed,
+                            progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"morphbench: interrupted; finished runs are saved in {args.out}: run the same command again to resume",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except WorkerLost as exc:
+        print(f"morphbench: {exc}; finished runs are saved in {args.out}: run the same command again to resume",
+              file=sys.stderr)
+        return EXIT_FAILED_RUNS
+    finally:
+        if client is not None:
+            client.close()
+    print(f"{suite.name}: {outcome.done} jobs done, {outcome.failed} failed, {outcome.skipped} already in {args.out}; "
+          f"{outcome.wall_time_s:.1f} s")
+    for job_id, error in outcome.failures[:10]:
+        print(f"  failed {job_id}: {error}")
+    if len(outcome.failures) > 10:
+        print(f"  ... and {len(outcome.failures) - 10} more (see {args.out}/runs.parquet)")
+    if not args.no_report:
+        path = build_report(args.out, outcome.tables)
+        print(f"report in {path}")
+    runs = outcome.tables["runs"]
+    return EXIT_FAILED_RUNS if (runs.status == "failed").any() or outcome.failed else 0
+
+
+def cmd_report(args) -> int:
+    from morphbench.bench.report import build_report
+
+    path = build_report(args.dir)
+    print(f"report in {path}")
+    return 0
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return value

@@ -1,0 +1,69 @@
+"""What a worker does with a job: run it and hand back its tables, or the reason it failed. Never raises.
+
+This is the one function executors ship to their workers (a local process or a Dask worker): it takes a
+``suite.Job`` and returns a plain dict of DataFrames and JSON-ready values, which the parent process writes to the
+store. Workers never touch the results directory, so a Dask cluster needs no shared file system.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from morphbench.experiment.run import run
+from morphbench.experiment.scan import velocity_at
+
+
+def execute(job) -> dict[str, Any]:
+    """``{'status': 'done' | 'failed', 'error', 'traceback', 'wall_time_s', ...tables}`` for one job."""
+    started = time.perf_counter()
+    try:
+        result = _run(job.payload) if job.kind == "run" else _scan(job.payload)
+    except (Exception, SystemExit) as exc:  # a plug-in calling sys.exit() fails its run, not the suite
+        result = {"status": "failed", "error": describe(exc), "traceback": traceback.format_exc()}
+    result.setdefault("error", None)
+    result.setdefault("traceback", None)
+    result["wall_time_s"] = time.perf_counter() - started
+    return result
+
+
+def _run(config) -> dict[str, Any]:
+    records = run(config)
+    steps = records.steps()
+    bad = non_finite_step(steps)
+    if bad is not None:
+        return {"status": "failed", "error": f"non-finite Ubar at learning step {bad}"}
+    return {"status": "done", "steps": steps, "units": records.units(), "summary": records.summary()}
+
+
+def _scan(payload) -> dict[str, Any]:
+    shape, phases, physics, cycles, discard = payload
+    ubar = [float(np.mean(velocity_at(shape, p, physics, cycles, discard))) for p in phases]
+    points = pd.DataFrame(np.asarray(phases)[:, 1:], columns=[f"dphi_{i}" for i in range(2, shape.n_units + 1)])
+    points["ubar"] = ubar
+    bad = np.flatnonzero(~np.isfinite(points.ubar.to_numpy()))
+    if len(bad):
+        return {"status": "failed", "error": f"non-finite Ubar at scan point {bad[0]} of this part"}
+    return {"status": "done", "points": points}
+
+
+def non_finite_step(steps: pd.DataFrame) -> int | None:
+    """The first learning step whose Ubar (measured or true) is NaN or infinite, or None."""
+    values = steps[["ubar", "ubar_true"]].to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+    return int(steps.step.iloc[bad[0]]) if len(bad) else None
+
+
+def describe(exc: BaseException) -> str:
+    """One line: the exception and where it was raised (the innermost frame)."""
+    text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    text = " ".join(text.split())
+    frames = traceback.extract_tb(exc.__traceback__)
+    if frames:
+        last = frames[-1]
+        text += f" (in {last.name}, {last.filename.rsplit('/', 1)[-1]}:{last.lineno})"
+    return text

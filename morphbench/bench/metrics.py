@@ -1,0 +1,179 @@
+"""Metrics of a suite's results: pure functions of DataFrames (the store's tables), no simulation, no files.
+
+Per condition (a run's configuration without its seed), over its seeds:
+- the learning curve: mean and quantiles of Ubar at each learning step, mean acceptance at each step (``curves``);
+- final Ubar: each run's mean over its last 10% of learning steps, then mean and std over runs;
+- U_eq, U_0, k_0: the fit ``U(k) = U_eq - (U_eq - U_0) exp(-k / k_0)`` to the seed-averaged curve
+  (``fit_exponential``: a grid over k_0 with linear least squares for U_eq and U_0, refined by golden section);
+- steps to reach ``THRESHOLD`` x U_eq: the first learning step at which each run's Ubar reaches it (mean and std
+  over the runs that reach it, and the fraction that do); not defined (NaN) when U_eq <= 0 or the fit found no
+  plateau within the window (``plateau`` False);
+- acceptance at the end (mean over the last 10% of steps) and over the whole run;
+- the best Ubar of the suite's scans of the same shape (same shape content, same physics) and the fraction of it
+  that learning reached (final Ubar / scan best).
+
+Ubar here is ``ubar_true`` by default: the robot's true speed, which measurement noise does not blur (the
+learners themselves only ever see ``ubar``, the measured one). Pass ``column='ubar'`` for the measured one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from morphbench.experiment.records import FINAL_FRACTION
+
+THRESHOLD = 0.8
+PLATEAU_SPANS = 3.0
+"""a fit has a plateau when k_0 <= (last step - first step) / PLATEAU_SPANS."""
+QUANTILES = (0.1, 0.25, 0.5, 0.75, 0.9)
+_GOLDEN = (math.sqrt(5) - 1) / 2
+
+
+def fit_exponential(k, u, n_grid: int = 400) -> dict[str, float]:
+    """Least-squares fit of ``u = U_eq - (U_eq - U_0) exp(-k / k_0)``: ``{'u_eq', 'u_0', 'k_0', 'rmse'}``.
+
+    For a fixed k_0 the model is linear in (U_eq, U_0), so the fit scans k_0 over a log grid from a tenth of the
+    smallest step spacing to 100x the span of ``k``, solves the linear least squares at each, then refines the best
+    k_0 by golden-section search on log k_0 between its grid neighbours. ``plateau`` says whether the curve levels
+    off inside the window: k_0 at most a third of the span of ``k`` (the fit covers 95% of its way from U_0 to U_eq).
+    Without one, U_eq is an extrapolation far beyond the data and says little.
+    """
+    k = np.asarray(k, dtype=float)
+    u = np.asarray(u, dtype=float)
+    keep = np.isfinite(k) & np.isfinite(u)
+    k, u = k[keep], u[keep]
+    nan = {"u_eq": math.nan, "u_0": math.nan, "k_0": math.nan, "rmse": math.nan, "plateau": False}
+    if len(k) < 3 or np.ptp(k) == 0:
+        return nan
+    span = float(np.ptp(k))
+    spacing = float(np.min(np.diff(np.unique(k))))
+    log_grid = np.linspace(math.log(spacing / 10), math.log(span * 100), n_grid)
+    sse = np.array([_linear_fit(k, u, math.exp(g))[2] for g in log_grid])
+    best = int(np.nanargmin(sse))
+    lo, hi = log_grid[max(best - 1, 0)], log_grid[min(best + 1, n_grid - 1)]
+    a, b = hi - _GOLDEN * (hi - lo), lo + _GOLDEN * (hi - lo)
+    fa, fb = _linear_fit(k, u, math.exp(a))[2], _linear_fit(k, u, math.exp(b))[2]
+    for _ in range(60):
+        if fa < fb:
+            hi, b, fb = b, a, fa
+            a = hi - _GOLDEN * (hi - lo)
+            fa = _linear_fit(k, u, math.exp(a))[2]
+        else:
+            lo, a, fa = a, b, fb
+            b = lo + _GOLDEN * (hi - lo)
+            fb = _linear_fit(k, u, math.exp(b))[2]
+    log_k0 = (lo + hi) / 2
+    if _linear_fit(k, u, math.exp(log_k0))[2] > sse[best]:
+        log_k0 = log_grid[best]
+    u_eq, u_0, error = _linear_fit(k, u, math.exp(log_k0))
+    return {"u_eq": u_eq, "u_0": u_0, "k_0": math.exp(log_k0), "rmse": math.sqrt(error / len(k)),
+            "plateau": math.exp(log_k0) <= span / PLATEAU_SPANS}
+
+
+def _linear_fit(k: np.ndarray, u: np.ndarray, k0: float) -> tuple[float, float, float]:
+    """(U_eq, U_0, sum of squared residuals) of the best fit at a fixed k_0."""
+    e = np.exp(-k / k0)
+    var = np.var(e)
+    if var < 1e-300:  # exp(-k/k0) is constant over k: only the mean is determined
+        mean = float(np.mean(u))
+        return mean, mean, float(np.sum((u - mean) ** 2))
+    slope = float(np.mean((e - e.mean()) * (u - u.mean())) / var)  # u = U_eq + slope * e, slope = U_0 - U_eq
+    u_eq = float(u.mean() - slope * e.mean())
+    residual = u - (u_eq + slope * e)
+    return u_eq, u_eq + slope, float(np.sum(residual ** 2))
+
+
+def steps_to_reach(steps: np.ndarray, ubar: np.ndarray, threshold: float) -> float:
+    """The first learning step at which ``ubar >= threshold``, NaN if never (or if the threshold is NaN)."""
+    if not math.isfinite(threshold):
+        return math.nan
+    reached = np.flatnonzero(np.asarray(ubar, dtype=float) >= threshold)
+    return float(np.asarray(steps)[reached[0]]) if len(reached) else math.nan
+
+
+def final_value(steps, values) -> float:
+    """Mean of ``values`` over the last FINAL_FRACTION (at least one) of the learning steps, step 0 (the initial
+    measurement) excluded: the definition of a run's final Ubar in its summary."""
+    steps, values = np.asarray(steps), np.asarray(values, dtype=float)
+    learning = values[steps > 0]
+    if not len(learning):
+        return math.nan
+    n_final = max(1, int(round(len(learning) * FINAL_FRACTION)))
+    return float(np.mean(learning[-n_final:]))
+
+
+def curves(steps: pd.DataFrame, column: str = "ubar_true") -> pd.DataFrame:
+    """Per condition and learning step: runs, mean and quantiles (q10, q25, q50, q75, q90) of Ubar, mean acceptance."""
+    if steps.empty:
+        return pd.DataFrame(columns=["condition_id", "step", "runs", "mean", *_qnames(), "acceptance"])
+    grouped = steps.groupby(["condition_id", "step"], sort=True)
+    table = grouped[column].agg(runs="count", mean="mean").reset_index()
+    quantiles = grouped[column].quantile(list(QUANTILES)).unstack()
+    quantiles.columns = _qnames()
+    table = table.join(quantiles, on=["condition_id", "step"])
+    table["acceptance"] = grouped.acceptance.mean().to_numpy()
+    return table
+
+
+def condition_metrics(steps: pd.DataFrame, runs: pd.DataFrame, scans: pd.DataFrame | None = None,
+                      column: str = "ubar_true", threshold: float = THRESHOLD) -> pd.DataFrame:
+    """One row per condition of ``runs`` (see the module doc); ``steps`` and ``runs`` are the store's tables."""
+    rows = []
+    best = scan_best(scans) if scans is not None else {}
+    condition_cols = [c for c in runs.columns if c not in _RUN_ONLY]
+    for condition_id, members in runs.groupby("condition_id", sort=False):
+        row = members.iloc[0][condition_cols].to_dict()
+        row["runs"] = len(members)
+        row["failed"] = int((members.status == "failed").sum())
+        row["missing"] = int((members.status == "missing").sum())
+        mine = steps[steps.condition_id == condition_id]
+        per_run = [g.sort_values("step") for _, g in mine.groupby("run_id", sort=False)]
+        finals = np.array([final_value(g.step, g[column]) for g in per_run])
+        row["final_ubar"] = _mean(finals)
+        row["final_ubar_std"] = _std(finals)
+        mean_curve = mine.groupby("step")[column].mean()
+        fit = fit_exponential(mean_curve.index.to_numpy(), mean_curve.to_numpy())
+        row.update(u_eq=fit["u_eq"], u_0=fit["u_0"], k_0=fit["k_0"], fit_rmse=fit["rmse"], plateau=fit["plateau"])
+        # no threshold without a plateau: a U_eq extrapolated from a curve still rising is not an equilibrium
+        target = threshold * fit["u_eq"] if fit["u_eq"] > 0 and fit["plateau"] else math.nan
+        reach = np.array([steps_to_reach(g.step.to_numpy(), g[column].to_numpy(), target) for g in per_run])
+        row["threshold"] = target
+        row["steps_to_threshold"] = _mean(reach[np.isfinite(reach)])
+        row["steps_to_threshold_std"] = _std(reach[np.isfinite(reach)])
+        row["reached_fraction"] = float(np.isfinite(reach).mean()) if len(reach) and math.isfinite(target) else math.nan
+        acceptance = mine.groupby("step").acceptance.mean()
+        row["acceptance_final"] = final_value(acceptance.index, acceptance.to_numpy())
+        row["acceptance_mean"] = float(acceptance[acceptance.index > 0].mean()) if len(acceptance) else math.nan
+        key = (row.get("shape_id"), row.get("physics"))
+        row["scan_best_ubar"] = best.get(key, math.nan)
+        row["learned_fraction"] = (row["final_ubar"] / row["scan_best_ubar"]
+                                   if row["scan_best_ubar"] > 0 else math.nan)
+        rows.append({"condition_id": condition_id, **row})
+    return pd.DataFrame(rows)
+
+
+def scan_best(scans: pd.DataFrame) -> dict[tuple, float]:
+    """The highest Ubar of any scan point, per (shape_id, physics)."""
+    if scans is None or scans.empty:
+        return {}
+    return {key: float(value) for key, value in scans.groupby(["shape_id", "physics"]).ubar.max().items()}
+
+
+_RUN_ONLY = {"run_id", "condition_id", "experiments", "seed", "status", "error", "final_ubar", "final_ubar_true",
+             "mean_acceptance", "sensor_error", "wall_time_s"}
+
+
+def _qnames() -> list[str]:
+    return [f"q{round(q * 100):02d}" for q in QUANTILES]
+
+
+def _mean(values: np.ndarray) -> float:
+    return float(np.mean(values)) if len(values) else math.nan
+
+
+def _std(values: np.ndarray) -> float:
+    """Sample standard deviation over runs (NaN for fewer than two)."""
+    return float(np.std(values, ddof=1)) if len(values) > 1 else math.nan

@@ -1,0 +1,126 @@
+"""Run a suite into a results directory: skip what is there, run the rest on an executor, save each job as it ends.
+
+    from morphbench.bench import load_suite, run_suite, LocalExecutor
+    outcome = run_suite(load_suite("benchmarks/smoke.toml"), "results/smoke", LocalExecutor(2))
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import pandas as pd
+
+from morphbench.bench.executors import LocalExecutor
+from morphbench.bench.jobs import execute
+from morphbench.bench.store import Store
+from morphbench.bench.suite import Job, Suite
+from morphbench.errors import ConfigError
+
+
+@dataclass
+class Outcome:
+    """What one call of ``run_suite`` did."""
+
+    total: int
+    """jobs in the suite (runs and scan parts)."""
+    skipped: int
+    """jobs already in the directory."""
+    done: int = 0
+    failed: int = 0
+    failures: list[tuple[str, str]] = field(default_factory=list)
+    """(job id, error) of the jobs that failed in this call."""
+    wall_time_s: float = 0.0
+    tables: dict[str, pd.DataFrame] = field(default_factory=dict)
+
+
+def run_suite(suite: Suite, out: str | Path, executor=None, *, resume: bool = False, retry_failed: bool = False,
+              progress: bool = True, on_result: Callable[[Job, dict], None] | None = None) -> Outcome:
+    """Run every job of ``suite`` that ``out`` does not hold yet, then consolidate the tables (morphbench.bench.store).
+
+    ``out`` may hold this suite's earlier (interrupted) results: its finished jobs are skipped, failed ones too
+    unless ``retry_failed``. If it holds results of a different suite, or of an earlier version of this one, it is
+    refused unless ``resume``: then the finished jobs both suites share are reused. ``on_result(job, result)`` is
+    called after each job is saved; an exception it raises (like Ctrl-C) stops the suite with every finished job
+    saved and the rest cancelled.
+    """
+    started = time.perf_counter()
+    executor = executor or LocalExecutor()
+    store = Store(out)
+    _check_directory(store, suite, resume)
+    store.clean_temporaries()
+    plan = suite.plan()
+    store.write_plan(plan, suite.text)
+    jobs = suite.jobs()
+    todo = [job for job in jobs if _needs_run(store, job, retry_failed)]
+    # longest first: the long runs start early and the short ones fill the gaps at the end (tables are in plan order)
+    todo.sort(key=lambda job: -job.cost)
+    outcome = Outcome(total=len(jobs), skipped=len(jobs) - len(todo))
+    bar = _progress_bar(suite, todo, executor, progress)
+    try:
+        for job, result in executor.run(todo, execute):
+            store.save(job, result)
+            if result["status"] == "done":
+                outcome.done += 1
+            else:
+                outcome.failed += 1
+                outcome.failures.append((job.id, result.get("error") or "unknown error"))
+            if bar is not None:
+                bar.update(job.cost)
+                bar.set_postfix_str(f"{outcome.done + outcome.failed}/{len(todo)} jobs, {outcome.failed} failed")
+            if on_result is not None:
+                on_result(job, result)
+    finally:
+        if bar is not None:
+            bar.close()
+    outcome.tables = store.consolidate(plan)
+    outcome.wall_time_s = time.perf_counter() - started
+    return outcome
+
+
+def _needs_run(store: Store, job: Job, retry_failed: bool) -> bool:
+    status = store.status(job.kind, job.id)
+    return status is None or (retry_failed and status != "done")
+
+
+def _check_directory(store: Store, suite: Suite, resume: bool) -> None:
+    root = store.root
+    if root.exists() and not root.is_dir():
+        raise ConfigError("--out", str(root), "a directory (this is a file)")
+    old = store.read_plan()
+    if old is None:
+        if root.is_dir() and any(p for p in root.iterdir() if not p.name.startswith(".")) and not resume:
+            raise ConfigError("--out", str(root), "a new or empty directory, or one written by 'morphbench bench' "
+                                                  "(pass --resume to use it anyway)")
+        try:
+            root.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ConfigError("--out", str(root), f"a directory that can be created ({exc.strerror})") from None
+        return
+    same = old.get("suite") == suite.name and _job_ids(old) == {job.id for job in suite.jobs()}
+    if not same and not resume:
+        what = f"suite {old.get('suite')!r}" if old.get("suite") != suite.name else "an earlier version of this suite"
+        raise ConfigError("--out", str(root), f"a directory holding this suite's results; it holds {what} "
+                                              "(pass --resume to reuse its finished runs, or choose another --out)")
+
+
+def _job_ids(plan: dict) -> set[str]:
+    ids = {run["id"] for run in plan.get("runs", [])}
+    for scan in plan.get("scans", []):
+        ids.update(scan["parts"])
+    return ids
+
+
+def _progress_bar(suite: Suite, todo: list[Job], executor, enabled: bool):
+    if not enabled or not todo:
+        return None
+    from tqdm import tqdm
+
+    n_runs = sum(job.kind == "run" for job in todo)
+    print(f"{suite.name}: {n_runs} runs and {len(todo) - n_runs} scan parts to do on a {executor.describe()}",
+          file=sys.stderr)
+    return tqdm(total=sum(job.cost for job in todo), desc=suite.name, unit="work",
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]")

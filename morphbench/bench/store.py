@@ -1,0 +1,232 @@
+"""The results directory of a suite: one directory per finished job, written atomically, and consolidated tables.
+
+Layout of ``DIR``::
+
+    plan.json            the expanded suite: experiments, runs (id, condition, seed) and scans (what the tables need)
+    suite.toml           a copy of the suite file, for the record
+    runs/<run_id>/       one finished run: steps.parquet, units.parquet (the RunRecords schema), result.json
+    scans/<part_id>/     one finished part of a scan: points.parquet (dphi_2.., ubar), result.json
+    runs.parquet         one row per run of the suite: run_id, condition_id, experiments, condition columns, seed,
+                         status ('done' | 'failed' | 'missing'), error, final_ubar, final_ubar_true,
+                         mean_acceptance, sensor_error, wall_time_s
+    steps.parquet        every finished run's steps.parquet rows, with run_id, condition_id, condition columns, seed
+    units.parquet        every finished run's units.parquet rows, with run_id
+    scans.parquet        every scan point: scan_id, scan columns (scan, shape, resolution, ...), dphi_2.., ubar
+    jobs.parquet         one row per job: job_id, kind, status, error, wall_time_s
+    curves.parquet, metrics.parquet, figures/, report.md    (morphbench.bench.report)
+
+A job directory is assembled under a temporary name and renamed into place, so it exists whole or not at all; a
+job whose directory exists is finished (done or failed: ``result.json`` says which) and is skipped when the suite
+is run again into the same directory. The consolidated tables are rebuilt from the job directories and the plan,
+always in plan order, so they are the same whichever executor ran the jobs and in whatever order they finished.
+``wall_time_s`` is the only column that changes from one execution to the next.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from morphbench.errors import ConfigError
+from morphbench.experiment.records import atomic_write
+
+KIND_DIRS = {"run": "runs", "scan": "scans"}
+RESULT = "result.json"
+PLAN = "plan.json"
+SUMMARY_COLUMNS = ("final_ubar", "final_ubar_true", "mean_acceptance", "sensor_error")
+RUN_STEP_COLUMNS = ("step", "time_s", "ubar", "ubar_true", "acceptance")
+
+
+class Store:
+    def __init__(self, root: str | Path):
+        self.root = Path(root)
+
+    # --- job directories ---
+
+    def job_dir(self, kind: str, job_id: str) -> Path:
+        return self.root / KIND_DIRS[kind] / job_id
+
+    def result(self, kind: str, job_id: str) -> dict | None:
+        """The job's result.json, or None if the job has not finished."""
+        path = self.job_dir(kind, job_id) / RESULT
+        try:
+            return json.loads(path.read_text())
+        except FileNotFoundError:
+            return None
+
+    def status(self, kind: str, job_id: str) -> str | None:
+        result = self.result(kind, job_id)
+        return None if result is None else result["status"]
+
+    def save(self, job, result: dict, extra: dict | None = None) -> Path:
+        """Write one job's tables and result.json into its directory, atomically (temp directory + rename)."""
+        final = self.job_dir(job.kind, job.id)
+        final.parent.mkdir(parents=True, exist_ok=True)
+        tmp = final.parent / f".tmp-{job.id}-{os.getpid()}"
+        if tmp.exists():
+            shutil.rmtree(tmp)
+        tmp.mkdir()
+        try:
+            for name in ("steps", "units", "points"):
+                table = result.get(name)
+                if table is not None:
+                    table.to_parquet(tmp / f"{name}.parquet", index=False)
+            meta = {"job_id": job.id, "kind": job.kind, "status": result["status"], "error": result.get("error"),
+                    "traceback": result.get("traceback"), "wall_time_s": result.get("wall_time_s"),
+                    "summary": result.get("summary"), **(extra or {})}
+            (tmp / RESULT).write_text(json.dumps(meta, indent=2, sort_keys=True, default=_json_default) + "\n")
+            if final.exists():  # a failed job run again (--retry-failed): move the old one out of the way first
+                old = final.parent / f".tmp-old-{job.id}-{os.getpid()}"
+                os.replace(final, old)
+                shutil.rmtree(old)
+            os.replace(tmp, final)
+        finally:
+            if tmp.exists():
+                shutil.rmtree(tmp)
+        return final
+
+    def read(self, kind: str, job_id: str, name: str) -> pd.DataFrame:
+        return pd.read_parquet(self.job_dir(kind, job_id) / f"{name}.parquet")
+
+    def clean_temporaries(self) -> int:
+        """Remove what a killed bench left half-written (temporary job directories and files)."""
+        removed = 0
+        for sub in KIND_DIRS.values():
+            folder = self.root / sub
+            if folder.is_dir():
+                for path in folder.glob(".tmp-*"):
+                    shutil.rmtree(path, ignore_errors=True)
+                    removed += 1
+        for path in self.root.glob(".*.tmp-*"):
+            path.unlink(missing_ok=True)
+            removed += 1
+        return removed
+
+    # --- the plan ---
+
+    def read_plan(self) -> dict | None:
+        try:
+            return json.loads((self.root / PLAN).read_text())
+        except FileNotFoundError:
+            return None
+
+    def require_plan(self) -> dict:
+        plan = self.read_plan()
+        if plan is None:
+            expected = "a results directory written by 'morphbench bench' (it has no plan.json)"
+            raise ConfigError(self.root, PLAN, expected)
+        return plan
+
+    def write_plan(self, plan: dict, suite_text: str = "") -> None:
+        self.root.mkdir(parents=True, exist_ok=True)
+        text = json.dumps(plan, indent=1, sort_keys=True, default=_json_default)
+        atomic_write(self.root / PLAN, lambda tmp: Path(tmp).write_text(text + "\n"))
+        if suite_text:
+            atomic_write(self.root / "suite.toml", lambda tmp: Path(tmp).write_text(suite_text))
+
+    # --- consolidated tables ---
+
+    def consolidate(self, plan: dict | None = None, write: bool = True) -> dict[str, pd.DataFrame]:
+        """runs, steps, units, scans and jobs tables of the plan's jobs from their directories (see module doc)."""
+        plan = plan or self.require_plan()
+        membership: dict[str, list[str]] = {}
+        for experiment in plan["experiments"]:
+            for run_id in experiment["run_ids"]:
+                membership.setdefault(run_id, []).append(experiment["name"])
+        run_rows, step_tables, unit_tables, job_rows = [], [], [], []
+        for entry in plan["runs"]:
+            run_id, condition = entry["id"], entry["condition"]
+            result = self.result("run", run_id)
+            status = "missing" if result is None else result["status"]
+            summary = (result or {}).get("summary") or {}
+            ids = {"run_id": run_id, "condition_id": entry["condition_id"]}
+            run_rows.append({**ids, "experiments": ";".join(membership.get(run_id, [])), **condition,
+                             "seed": entry["seed"], "status": status, "error": (result or {}).get("error"),
+                             **{k: _float(summary.get(k)) for k in SUMMARY_COLUMNS},
+                             "wall_time_s": _float((result or {}).get("wall_time_s"))})
+            job_rows.append(_job_row(run_id, "run", result))
+            if status == "done":
+                steps = self.read("run", run_id, "steps")
+                step_tables.append(_prefix(steps, {**ids, **condition, "seed": entry["seed"]}))
+                unit_tables.append(_prefix(self.read("run", run_id, "units"), {"run_id": run_id}))
+        scan_tables = []
+        for scan in plan["scans"]:
+            for part_id in scan["parts"]:
+                result = self.result("scan", part_id)
+                job_rows.append(_job_row(part_id, "scan", result))
+                if result is not None and result["status"] == "done":
+                    points = self.read("scan", part_id, "points")
+                    scan_tables.append(_prefix(points, {"scan_id": scan["id"], **scan["columns"]}))
+        tables = {
+            "runs": pd.DataFrame(run_rows, columns=_run_columns(plan)),
+            "steps": _concat(step_tables, _step_columns(plan)),
+            "units": _concat(unit_tables, ["run_id"]),
+            "scans": _concat(scan_tables, ["scan_id", "scan", "shape", "shape_id", "n_units", "ubar"]),
+            "jobs": pd.DataFrame(job_rows, columns=["job_id", "kind", "status", "error", "wall_time_s"]),
+        }
+        if write:
+            for name, table in tables.items():
+                self.write_table(name, table)
+        return tables
+
+    def write_table(self, name: str, table: pd.DataFrame) -> Path:
+        path = self.root / f"{name}.parquet"
+        atomic_write(path, lambda tmp: table.to_parquet(tmp, index=False))
+        return path
+
+    def read_table(self, name: str) -> pd.DataFrame:
+        return pd.read_parquet(self.root / f"{name}.parquet")
+
+
+def _job_row(job_id: str, kind: str, result: dict | None) -> dict:
+    result = result or {}
+    return {"job_id": job_id, "kind": kind, "status": result.get("status", "missing"), "error": result.get("error"),
+            "wall_time_s": _float(result.get("wall_time_s"))}
+
+
+def _condition_keys(plan: dict) -> list[str]:
+    keys: list[str] = []
+    for entry in plan["runs"]:
+        for key in entry["condition"]:
+            if key not in keys:
+                keys.append(key)
+    return keys
+
+
+def _run_columns(plan: dict) -> list[str]:
+    return ["run_id", "condition_id", "experiments", *_condition_keys(plan), "seed", "status", "error",
+            *SUMMARY_COLUMNS, "wall_time_s"]
+
+
+def _step_columns(plan: dict) -> list[str]:
+    return ["run_id", "condition_id", *_condition_keys(plan), "seed", *RUN_STEP_COLUMNS]
+
+
+def _prefix(table: pd.DataFrame, columns: dict[str, Any]) -> pd.DataFrame:
+    """``table`` with constant columns in front."""
+    front = pd.DataFrame({key: [value] * len(table) for key, value in columns.items()}, index=table.index)
+    return pd.concat([front, table], axis=1)
+
+
+def _concat(tables: list[pd.DataFrame], columns: list[str]) -> pd.DataFrame:
+    if not tables:
+        return pd.DataFrame(columns=columns)
+    return pd.concat(tables, ignore_index=True)
+
+
+def _float(value: Any) -> float:
+    return float("nan") if value is None else float(value)
+
+
+def _json_default(value: Any):
+    if hasattr(value, "item"):  # numpy scalars
+        return value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return str(value)

@@ -1,0 +1,468 @@
+"""Benchmark suites: expansion and validation, executors that agree, resume, failures, metrics, report and CLI.
+
+The suites here are tiny (chain-2, a few learning steps, a scan of a few one-cycle points): they test the plumbing.
+The metrics are checked on synthetic curves whose answers are known exactly.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shutil
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from morphbench.bench import DaskExecutor, LocalExecutor, add_bench_commands, build_report, load_suite, run_suite
+from morphbench.bench import jobs as bench_jobs
+from morphbench.bench.metrics import condition_metrics, curves, fit_exponential, steps_to_reach
+from morphbench.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parents[1]
+SHAPES = ROOT / "shapes"
+BENCHMARKS = ROOT / "benchmarks"
+TABLES = ("runs", "steps", "units", "scans", "jobs")
+
+TINY = f"""
+name = "tiny"
+description = "two learners, two noise levels, two seeds of 4 steps on chain-2, and a 4-point scan"
+
+[[experiment]]
+name = "pair"
+shapes = ["{SHAPES / 'chain-2.toml'}"]
+learners = ["thermal", "flaky"]
+noise = [0.0, 0.5]
+seeds = 2
+steps = 4
+
+[[scan]]
+shape = "{SHAPES / 'chain-2.toml'}"
+resolution = 4
+cycles = 1
+discard = 0
+"""
+N_TINY_RUNS = 8
+N_TINY_JOBS = 9  # 8 runs and one scan part
+
+
+def write_suite(directory: Path, text: str, name: str = "suite.toml") -> Path:
+    path = directory / name
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+def comparable(tables: dict[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
+    """The tables without wall times, the one thing that changes from one execution to the next."""
+    return {name: tables[name].drop(columns=["wall_time_s"], errors="ignore") for name in TABLES}
+
+
+def assert_same_tables(a: dict[str, pd.DataFrame], b: dict[str, pd.DataFrame]) -> None:
+    a, b = comparable(a), comparable(b)
+    for name in TABLES:
+        pd.testing.assert_frame_equal(a[name], b[name], check_exact=True, obj=name)
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The tiny suite run straight through on a local pool of 2 workers: (suite path, results dir, outcome)."""
+    directory = tmp_path_factory.mktemp("reference")
+    suite_path = write_suite(directory, TINY)
+    out = directory / "results"
+    outcome = run_suite(load_suite(suite_path), out, LocalExecutor(2), progress=False)
+    return suite_path, out, outcome
+
+
+# --- executors agree ---------------------------------------------------------------------------------------------
+
+
+def test_straight_run_records_every_job(reference):
+    _, out, outcome = reference
+    assert (outcome.total, outcome.done, outcome.failed, outcome.skipped) == (N_TINY_JOBS, N_TINY_JOBS, 0, 0)
+    runs, steps, scans = outcome.tables["runs"], outcome.tables["steps"], outcome.tables["scans"]
+    assert len(runs) == N_TINY_RUNS and runs.run_id.is_unique and (runs.status == "done").all()
+    assert len(steps) == N_TINY_RUNS * 5 and not steps.duplicated(["run_id", "step"]).any()
+    assert set(steps.columns) >= {"run_id", "condition_id", "shape", "n_units", "learner", "step_size", "temperature",
+                                  "noise", "steps", "seed", "step", "ubar", "ubar_true", "acceptance"}
+    assert runs.groupby("condition_id").seed.apply(sorted).tolist() == [[0, 1]] * 4
+    assert len(scans) == 4 and list(scans.dphi_2) == [0.0, 0.25, 0.5, 0.75]
+    # noise is measurement noise only: measured and true Ubar agree without it and differ with it
+    noiseless, noisy = steps[steps.noise == 0], steps[steps.noise == 0.5]
+    assert np.array_equal(noiseless.ubar, noiseless.ubar_true)
+    assert not np.allclose(noisy.ubar, noisy.ubar_true)
+    # what the store holds on disk is what run_suite returned
+    on_disk = {name: pd.read_parquet(out / f"{name}.parquet") for name in TABLES}
+    assert_same_tables(on_disk, outcome.tables)
+    assert len(list((out / "runs").iterdir())) == N_TINY_RUNS
+
+
+def test_one_worker_and_a_dask_cluster_give_the_same_tables(reference, tmp_path):
+    suite_path, _, outcome = reference
+    one = run_suite(load_suite(suite_path), tmp_path / "one", LocalExecutor(1), progress=False)
+    assert_same_tables(one.tables, outcome.tables)
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        pytest.skip("dask.distributed is not installed (pip install 'morphbench[dask]')")
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        dask = run_suite(load_suite(suite_path), tmp_path / "dask", DaskExecutor(client), progress=False)
+        # and through the command line, by the scheduler's address
+        address = cluster.scheduler_address
+        assert cli("bench", str(suite_path), "--out", str(tmp_path / "cli"), "--scheduler", address, "--quiet",
+                   "--no-report") == 0
+    assert dask.done == N_TINY_JOBS
+    assert_same_tables(dask.tables, outcome.tables)
+    assert_same_tables({name: pd.read_parquet(tmp_path / "cli" / f"{name}.parquet") for name in TABLES},
+                       outcome.tables)
+
+
+# --- resume ------------------------------------------------------------------------------------------------------
+
+
+class Killed(Exception):
+    pass
+
+
+def test_a_suite_killed_midway_and_resumed_equals_one_run_straight_through(reference, tmp_path):
+    suite_path, _, outcome = reference
+    out = tmp_path / "resumed"
+    saved = []
+
+    def kill_after_three(job, result):
+        saved.append(job.id)
+        if len(saved) == 3:
+            raise Killed
+
+    with pytest.raises(Killed):
+        run_suite(load_suite(suite_path), out, LocalExecutor(2), progress=False, on_result=kill_after_three)
+    finished = [p for sub in ("runs", "scans") if (out / sub).is_dir() for p in (out / sub).iterdir()]
+    assert sorted(p.name for p in finished) == sorted(saved)
+    # what a kill during a write leaves behind: a half-written job directory and a temporary file
+    (out / "runs" / f".tmp-{saved[0]}-99999").mkdir()
+    (out / "runs" / f".tmp-{saved[0]}-99999" / "steps.parquet").write_bytes(b"half")
+    (out / ".runs.parquet.tmp-99999").write_bytes(b"half")
+
+    resumed = run_suite(load_suite(suite_path), out, LocalExecutor(2), progress=False)
+    assert (resumed.skipped, resumed.done, resumed.failed) == (3, N_TINY_JOBS - 3, 0)
+    assert_same_tables(resumed.tables, outcome.tables)
+    assert sorted(p.name for p in (out / "runs").iterdir()) == sorted(outcome.tables["runs"].run_id)
+    assert not list(out.glob(".*tmp*"))
+    again = run_suite(load_suite(suite_path), out, LocalExecutor(2), progress=False)
+    assert (again.skipped, again.done) == (N_TINY_JOBS, 0)
+    assert_same_tables(again.tables, outcome.tables)
+
+
+def test_a_directory_of_another_suite_is_refused_unless_resume(reference, tmp_path):
+    suite_path, out, _ = reference
+    grown = write_suite(tmp_path, TINY.replace("seeds = 2", "seeds = 3"), "tiny.toml")
+    with pytest.raises(ConfigError, match="--out.*earlier version of this suite.*--resume"):
+        run_suite(load_suite(grown), out, LocalExecutor(1), progress=False)
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    outcome = run_suite(load_suite(grown), copy, LocalExecutor(2), progress=False, resume=True)
+    assert (outcome.skipped, outcome.done) == (N_TINY_JOBS, 4)  # only the new seed's runs
+    assert sorted(outcome.tables["runs"].seed.unique()) == [0, 1, 2]
+
+
+# --- failures ----------------------------------------------------------------------------------------------------
+
+EXPLODING = '''
+class Exploding:
+    """Measures twice, then raises in its third update."""
+
+    def __init__(self, params, rng):
+        self.rng, self.phase, self.calls = rng, float(rng.uniform()), 0
+
+    def propose(self):
+        return (self.phase + 0.05) % 1.0
+
+    def update(self, velocity):
+        self.calls += 1
+        if self.calls == 3:
+            raise RuntimeError("exploding learner: boom")
+        return False
+'''
+
+
+def test_a_failing_run_is_recorded_and_the_others_go_on(tmp_path, monkeypatch):
+    plugins = tmp_path / "plugins"
+    plugins.mkdir()
+    (plugins / "bench_test_exploding.py").write_text(EXPLODING)
+    monkeypatch.syspath_prepend(str(plugins))  # for the suite's check in this process
+    monkeypatch.setenv("PYTHONPATH", str(plugins))  # for the worker processes
+    suite = write_suite(tmp_path, f"""
+        [[experiment]]
+        name = "mixed"
+        shapes = ["{SHAPES / 'chain-2.toml'}"]
+        learners = ["thermal", "bench_test_exploding:Exploding"]
+        seeds = 2
+        steps = 4
+    """)
+    outcome = run_suite(load_suite(suite), tmp_path / "out", LocalExecutor(2), progress=False)
+    runs = outcome.tables["runs"]
+    assert (outcome.done, outcome.failed) == (2, 2)
+    failed = runs[runs.learner.str.contains("Exploding")]
+    assert (failed.status == "failed").all()
+    assert failed.error.str.contains("RuntimeError: exploding learner: boom").all()
+    assert (runs[runs.learner == "thermal"].status == "done").all()
+    assert set(outcome.tables["steps"].learner) == {"thermal"}
+    result = json.loads((tmp_path / "out" / "runs" / failed.run_id.iloc[0] / "result.json").read_text())
+    assert "Traceback" in result["traceback"] and result["status"] == "failed"
+    report = build_report(tmp_path / "out").read_text()
+    assert "## Failed jobs" in report and "exploding learner: boom" in report
+    # a failed run is finished: it is not run again unless asked
+    again = run_suite(load_suite(suite), tmp_path / "out", LocalExecutor(1), progress=False)
+    assert (again.skipped, again.done, again.failed) == (4, 0, 0)
+    retried = run_suite(load_suite(suite), tmp_path / "out", LocalExecutor(1), progress=False, retry_failed=True)
+    assert (retried.skipped, retried.failed) == (2, 2)
+
+
+def test_a_run_with_non_finite_ubar_fails_with_the_step(monkeypatch):
+    class Records:
+        def steps(self):
+            return pd.DataFrame({"step": [0, 1, 2], "ubar": [0.1, np.nan, 0.3], "ubar_true": [0.1, 0.2, 0.3]})
+
+    monkeypatch.setattr(bench_jobs, "run", lambda config: Records())
+    suite = load_suite(BENCHMARKS / "smoke.toml")
+    result = bench_jobs.execute(suite.jobs()[0])
+    assert result["status"] == "failed" and result["error"] == "non-finite Ubar at learning step 1"
+
+
+# --- suite files -------------------------------------------------------------------------------------------------
+
+
+def test_suite_expansion_ids_are_stable_and_shared_runs_run_once(tmp_path):
+    text = f"""
+        name = "ids"
+        [defaults]
+        steps = 5
+        seeds = [3, 4]
+        [[experiment]]
+        name = "a"
+        shapes = ["{SHAPES / 'chain-2.toml'}", "{SHAPES / 'chain-3.toml'}"]
+        learners = ["thermal", "flaky"]
+        [experiment.learner_params]
+        step_size = [0.1, 0.025]
+        [[experiment]]
+        name = "b"
+        shapes = ["{SHAPES / 'chain-2.toml'}"]
+        [experiment.learner_params]
+        step_size = 0.1
+    """
+    suite = load_suite(write_suite(tmp_path, text))
+    a, b = suite.experiments
+    assert len(a.run_ids) == 2 * 2 * 2 * 2 and len(a.condition_ids) == 8
+    assert set(a.varying) == {"shape", "shape_id", "n_units", "learner", "step_size"}
+    assert len(b.run_ids) == 2 and set(b.run_ids) <= set(a.run_ids)  # b's runs are a's: run once
+    assert len(suite.runs) == 16 and [r.seed for r in suite.runs.values()][:2] == [3, 4]
+    # the same runs from a suite elsewhere, naming copies of the shape files by a relative path, have the same ids
+    (tmp_path / "shapes").mkdir()
+    for name in ("chain-2.toml", "chain-3.toml"):
+        (tmp_path / "shapes" / name).write_bytes((SHAPES / name).read_bytes())
+    elsewhere = tmp_path / "deeper" / "still"
+    elsewhere.mkdir(parents=True)
+    moved = load_suite(write_suite(elsewhere, text.replace(str(SHAPES), "../../shapes")))
+    assert list(moved.runs) == list(suite.runs)
+
+
+def test_suites_use_the_ideal_sensor_unless_told_and_put_noise_in_the_run_config(tmp_path):
+    suite = load_suite(write_suite(tmp_path, f"""
+        [[experiment]]
+        name = "ideal"
+        shapes = ["{SHAPES / 'chain-2.toml'}"]
+        noise = [0.0, 0.25]
+        [[experiment]]
+        name = "optical"
+        shapes = ["{SHAPES / 'chain-2.toml'}"]
+        [experiment.sensor]
+        kind = "optical"
+        [experiment.sensor.optical]
+        frame_rate = 20.0
+    """))
+    ideal, optical = ([suite.runs[i] for i in e.run_ids] for e in suite.experiments)
+    assert [r.config.sensor.kind for r in ideal] == ["ideal", "ideal"]
+    assert [r.condition["noise"] for r in ideal] == [0.0, 0.25]
+    configs = [r.config for r in ideal]
+    noise = [c.environment.noise if hasattr(c, "environment") else c.sensor.noise for c in configs]
+    assert noise == [0.0, 0.25]
+    assert optical[0].config.sensor.kind == "optical" and optical[0].config.sensor.optical.frame_rate == 20.0
+    assert optical[0].condition["sensor_optical_frame_rate"] == 20.0
+    assert "sensor_optical_frame_rate" not in ideal[0].condition
+
+
+@pytest.mark.parametrize("body, key, expected", [
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteeps = 10', "experiment[x].steeps", "known keys"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteps = "ten"', "experiment[x].steps", "an integer"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nseeds = 0', "experiment[x].seeds", "number of seeds"),
+    ('[[experiment]]\nname = "x"\nshapes = ["nowhere/chain-9.toml"]', "experiment[x].shapes", "existing morphology"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nnoise = [0.5, -1]', "experiment[x].noise", ">= 0"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nlearners = ["greedy"]', "experiment[x].learners",
+     "thermal"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\n[experiment.learner_params]\ntemprature = 1',
+     "experiment[x].learner_params.temprature", "known keys"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\n[experiment.learner_params]\ntemperature = [1, "hot"]',
+     "experiment[x].learner_params.temperature", "finite number"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nenvironments = ["slippery"]', "experiment[x].environments",
+     "do not support environments"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\n[[experiment.events]]\nstep = 300',
+     "experiment[x].events", "do not support events"),
+    ('[[scan]]\nshape = "{chain2}"\nresolution = 0', "scan[1].resolution", "an integer >= 1"),
+    ('[[scan]]\nshape = "{chain2}"\ncolour = "red"', "scan[1].colour", "known keys"),
+    ('title = "x"', "title", "known keys"),
+    ('name = "x"', "experiment", "at least one"),
+])
+def test_a_bad_suite_file_names_the_file_and_the_key(tmp_path, body, key, expected):
+    path = write_suite(tmp_path, body.replace("{chain2}", str(SHAPES / "chain-2.toml")), "bad-suite.toml")
+    with pytest.raises(ConfigError) as info:
+        load_suite(path)
+    message = str(info.value)
+    assert "\n" not in message
+    assert message.startswith(f"{path}: {key}: expected"), message
+    assert expected in message
+
+
+def test_a_broken_shape_file_names_the_shape_file_and_its_key(tmp_path):
+    (tmp_path / "broken.toml").write_text('[assembly]\ngenerator = "chain"\nunits = "three"\n')
+    path = write_suite(tmp_path, '[[experiment]]\nshapes = ["broken.toml"]\n')
+    with pytest.raises(ConfigError, match=r"broken\.toml: assembly\.units: expected"):
+        load_suite(path)
+
+
+def test_the_shipped_suites_load():
+    counts = {}
+    for name in ("smoke", "paper-quick", "paper", "morphologies"):
+        suite = load_suite(BENCHMARKS / f"{name}.toml")
+        counts[name] = len(suite.runs)
+        assert suite.name == name and suite.experiments
+    smoke = load_suite(BENCHMARKS / "smoke.toml")
+    assert {r.condition["n_units"] for r in smoke.runs.values()} == {2, 3}
+    assert {r.condition["learner"] for r in smoke.runs.values()} == {"thermal", "flaky"}
+    assert counts["smoke"] < counts["paper-quick"] < counts["paper"]
+
+
+# --- metrics -----------------------------------------------------------------------------------------------------
+
+
+def test_the_fit_recovers_an_exact_exponential():
+    k = np.arange(0, 301)
+    fit = fit_exponential(k, 4.5 - (4.5 - (-1.0)) * np.exp(-k / 23.0))
+    assert fit["u_eq"] == pytest.approx(4.5, abs=1e-6)
+    assert fit["u_0"] == pytest.approx(-1.0, abs=1e-6)
+    assert fit["k_0"] == pytest.approx(23.0, rel=1e-5)
+    assert fit["rmse"] < 1e-6 and fit["plateau"]
+
+
+def test_the_fit_tolerates_noise_and_flags_a_curve_without_plateau():
+    k = np.arange(0, 301)
+    rng = np.random.default_rng(0)
+    fit = fit_exponential(k, 3.0 - 3.0 * np.exp(-k / 40.0) + rng.normal(0, 0.2, len(k)))
+    assert fit["u_eq"] == pytest.approx(3.0, abs=0.1) and fit["k_0"] == pytest.approx(40.0, rel=0.15)
+    assert not fit_exponential(k, 0.01 * k)["plateau"]
+    assert not fit_exponential(k, 3.0 - 3.0 * np.exp(-k / 150.0))["plateau"]  # still rising at the end of the window
+
+
+def test_steps_to_reach_is_the_first_step_at_or_over_the_threshold():
+    steps = np.arange(10, 20)
+    ubar = np.array([0, 1, 2, 3.2, 3.1, 5, 5, 5, 5, 5], dtype=float)
+    assert steps_to_reach(steps, ubar, 3.2) == 13
+    assert steps_to_reach(steps, ubar, 3.15) == 13
+    assert steps_to_reach(steps, ubar, 5) == 15
+    assert math.isnan(steps_to_reach(steps, ubar, 5.1))
+    assert math.isnan(steps_to_reach(steps, ubar, math.nan))
+
+
+def synthetic_tables(u_eq=6.0, k_0=20.0, n_steps=200):
+    """Two runs that follow U(k) = u_eq (1 - exp(-k/k_0)) exactly and one stuck at 0: the seed mean is the same
+    exponential scaled by 2/3, so every metric has a closed form."""
+    k = np.arange(n_steps + 1)
+    curve = u_eq * (1 - np.exp(-k / k_0))
+    rows, runs = [], []
+    for seed, (ubar, acceptance) in enumerate([(curve, 0.5), (curve, 0.25), (np.zeros_like(curve), 0.0)]):
+        run_id = f"r{seed}"
+        runs.append({"run_id": run_id, "condition_id": "c", "experiments": "x", "shape": "chain-2", "shape_id": "s2",
+                     "n_units": 2, "learner": "thermal", "physics": "fast", "seed": seed, "status": "done",
+                     "error": None, "wall_time_s": 1.0})
+        rows.append(pd.DataFrame({"run_id": run_id, "condition_id": "c", "seed": seed, "step": k, "ubar": ubar,
+                                  "ubar_true": ubar, "acceptance": acceptance}))
+    runs.append({**runs[0], "run_id": "r3", "seed": 3, "status": "failed", "error": "boom"})
+    return pd.concat(rows, ignore_index=True), pd.DataFrame(runs), curve
+
+
+def test_condition_metrics_on_synthetic_curves_have_the_known_answers():
+    steps, runs, curve = synthetic_tables()
+    scans = pd.DataFrame({"shape_id": ["s2"] * 3 + ["s3"], "physics": "fast", "ubar": [1.0, 8.0, -2.0, 99.0]})
+    (row,) = condition_metrics(steps, runs, scans).to_dict("records")
+    assert (row["runs"], row["failed"], row["missing"]) == (4, 1, 0)
+    assert row["u_eq"] == pytest.approx(4.0, abs=1e-6) and row["u_0"] == pytest.approx(0.0, abs=1e-6)
+    assert row["k_0"] == pytest.approx(20.0, rel=1e-5)
+    # 0.8 * 4 = 3.2 = 6 (1 - exp(-k/20)) at k = 20 ln(6/2.8) = 15.24: the two learning runs reach it at step 16
+    assert row["threshold"] == pytest.approx(3.2, abs=1e-6)
+    assert row["steps_to_threshold"] == 16 and row["steps_to_threshold_std"] == 0
+    assert row["reached_fraction"] == pytest.approx(2 / 3)
+    final = curve[-20:].mean()  # the last 10% of 200 learning steps
+    assert row["final_ubar"] == pytest.approx(2 / 3 * final)
+    assert row["final_ubar_std"] == pytest.approx(np.std([final, final, 0.0], ddof=1))
+    assert row["acceptance_final"] == pytest.approx(0.25) and row["acceptance_mean"] == pytest.approx(0.25)
+    assert row["scan_best_ubar"] == 8.0 and row["learned_fraction"] == pytest.approx(2 / 3 * final / 8.0)
+    table = curves(steps)
+    at_15 = table[table.step == 15].iloc[0]
+    assert at_15.runs == 3 and at_15.q50 == pytest.approx(curve[15])
+    assert at_15["mean"] == pytest.approx(2 / 3 * curve[15])
+    assert at_15.acceptance == pytest.approx(0.25)
+
+
+# --- the command line --------------------------------------------------------------------------------------------
+
+
+def cli(*argv: str) -> int:
+    """The way morphbench.cli runs a subcommand: its func, a ConfigError becoming exit status 2."""
+    parser = argparse.ArgumentParser(prog="morphbench")
+    add_bench_commands(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(list(argv))
+    try:
+        return args.func(args)
+    except ConfigError as exc:
+        print(f"morphbench: error: {exc}", file=sys.stderr)
+        return 2
+
+
+def test_cli_bench_and_report_end_to_end(tmp_path, capsys):
+    suite = write_suite(tmp_path, TINY)
+    out = tmp_path / "results"
+    assert cli("bench", str(suite), "--out", str(out), "--workers", "2", "--quiet") == 0
+    printed = capsys.readouterr().out
+    assert f"tiny: {N_TINY_JOBS} jobs done, 0 failed, 0 already in" in printed and "report.md" in printed
+    report = (out / "report.md").read_text()
+    assert "## pair" in report and "## Scans" in report
+    figures = {p.name for p in (out / "figures").iterdir()}
+    assert {"pair-ubar.png", "pair-acceptance.png", "scan-chain-2-r4.png"} <= figures
+    metrics = pd.read_parquet(out / "metrics.parquet")
+    assert len(metrics) == 4 and metrics.scan_best_ubar.notna().all()
+
+    (out / "report.md").unlink()
+    for png in (out / "figures").iterdir():
+        png.unlink()
+    assert cli("report", str(out)) == 0
+    assert (out / "report.md").read_text().split("Report written")[1].split("\n", 1)[1] == \
+        report.split("Report written")[1].split("\n", 1)[1]
+    assert {p.name for p in (out / "figures").iterdir()} == figures
+
+    assert cli("bench", str(suite), "--out", str(out), "--quiet") == 0  # everything is there: nothing to do
+    assert f"0 jobs done, 0 failed, {N_TINY_JOBS} already in" in capsys.readouterr().out
+
+
+def test_cli_bad_input_is_one_line_with_status_2(tmp_path, capsys):
+    bad = write_suite(tmp_path, '[[experiment]]\nshapes = ["missing.toml"]\n', "bad.toml")
+    assert cli("bench", str(bad), "--out", str(tmp_path / "out")) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and str(bad) in err and "experiment[experiment-1].shapes" in err
+    assert cli("report", str(tmp_path)) == 2
+    assert "plan.json" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli("bench", str(bad), "--out", "x", "--workers", "2", "--scheduler", "tcp://localhost:1")
+    capsys.readouterr()
