@@ -14,32 +14,16 @@ import trimesh
 from morphbench.errors import ConfigError
 from morphbench.params import ActuatorParams, DummyParams, UnitParams
 from morphbench.shapes import check_shape, components, is_connected, load_shape, shuffle
-from morphbench.shapes.cli import add_shapes_commands, main
+from morphbench.cli import main
+from morphbench.shapes.cli import add_shapes_commands
 from morphbench.shapes.export import body_names, draw, export_scene
 from morphbench.shapes.loader import GENERATORS, MAX_UNITS
+from test_shapes_loader import assert_config_error, write
 
 SHAPES_DIR = Path(__file__).resolve().parents[1] / "shapes"
 LIBRARY = sorted(SHAPES_DIR.glob("*.toml"))
 UNIT, DUMMY, ACTUATOR = UnitParams(), DummyParams(), ActuatorParams()
 PITCH = (UNIT.length + ACTUATOR.rest_gap, UNIT.width + ACTUATOR.rest_gap, UNIT.height + ACTUATOR.rest_gap)
-
-
-def write(directory: Path, text: str, name: str = "shape.toml") -> Path:
-    path = directory / name
-    path.write_text(text, encoding="utf-8")
-    return path
-
-
-def assert_config_error(path: Path, key: str, expected: str) -> ConfigError:
-    with pytest.raises(ConfigError) as info:
-        load_shape(path)
-    error, message = info.value, str(info.value)
-    assert error.source == str(path)
-    assert error.key == key, message
-    assert message.startswith(f"{path}: {key}: expected ")
-    assert expected in message, f"{expected!r} not in {message!r}"
-    assert "\n" not in message
-    return error
 
 
 def has_cut(path: Path) -> bool:

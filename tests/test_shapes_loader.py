@@ -41,9 +41,8 @@ def assert_config_error(path: Path, key: str, expected: str) -> ConfigError:
         load_shape(path)
     error, message = info.value, str(info.value)
     assert error.source == str(path)
-    assert error.key == key
-    assert str(path) in message
-    assert f": {key}: expected " in message
+    assert error.key == key, message
+    assert message.startswith(f"{path}: {key}: expected ")
     assert expected in message, f"{expected!r} not in {message!r}"
     assert "\n" not in message  # the CLI prints it on one line
     return error

@@ -298,7 +298,7 @@ class VideoRecorder:
         names; default ``self.step``)."""
         if self.world is None:
             raise ValueError("VideoRecorder has no world yet: pass one, or let it see a tick first")
-        world, c = self.world, self.world.client
+        c = self.world.client
         width, height = self.params.width, self.params.height
         self._recolour()
         view = pb.computeViewMatrixFromYawPitchRoll(

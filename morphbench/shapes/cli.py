@@ -13,7 +13,6 @@ line and exits with 2). ``python -m morphbench.shapes.cli ...`` runs the same co
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from morphbench.errors import ConfigError
@@ -21,7 +20,6 @@ from morphbench.shapes.checks import components
 from morphbench.shapes.export import SCENE_SUFFIXES
 from morphbench.shapes.loader import load_shape
 
-EXIT_BAD_INPUT = 2
 PACKAGE_SHAPES = Path(__file__).resolve().parents[2] / "shapes"
 """The shipped library (next to the package in a source checkout)."""
 
@@ -90,55 +88,26 @@ def cmd_check(args) -> int:
 def cmd_export(args) -> int:
     from morphbench.shapes.export import export_scene
 
-    out = Path(args.out)
-    if out.suffix.lower() not in SCENE_SUFFIXES:
-        raise ConfigError("--out", args.out, f"a file name ending in {', '.join(SCENE_SUFFIXES)}")
-    if out.is_dir():
-        raise ConfigError("--out", args.out, "a file name (this is a directory)")
-    shape = load_shape(args.file)
-    try:
-        export_scene(shape, out)
-    except OSError as exc:
-        raise ConfigError("--out", args.out, f"a file that can be written ({exc.strerror or exc})") from None
-    print(f"{shape.name}: {_counts(shape)} -> {out}")
-    return 0
+    return _write(args.file, "--out", args.out, SCENE_SUFFIXES, export_scene)
 
 
 def cmd_show(args) -> int:
     from morphbench.shapes.export import draw
 
-    out = Path(args.png)
-    if out.suffix.lower() != ".png":
-        raise ConfigError("--png", args.png, "a file name ending in .png")
+    return _write(args.file, "--png", args.png, (".png",), draw)
+
+
+def _write(file: str, flag: str, output: str, suffixes, writer) -> int:
+    """Load a shape and write it to ``output`` with ``writer(shape, path)``, the output checked first."""
+    out = Path(output)
+    if out.suffix.lower() not in suffixes:
+        raise ConfigError(flag, output, f"a file name ending in {', '.join(suffixes)}")
     if out.is_dir():
-        raise ConfigError("--png", args.png, "a file name (this is a directory)")
-    shape = load_shape(args.file)
+        raise ConfigError(flag, output, "a file name (this is a directory)")
+    shape = load_shape(file)
     try:
-        draw(shape, out)
+        writer(shape, out)
     except OSError as exc:
-        raise ConfigError("--png", args.png, f"a file that can be written ({exc.strerror or exc})") from None
+        raise ConfigError(flag, output, f"a file that can be written ({exc.strerror or exc})") from None
     print(f"{shape.name}: {_counts(shape)} -> {out}")
     return 0
-
-
-class _Parser(argparse.ArgumentParser):
-    """A bad option is one line and exit 2, as in ``morphbench.cli``."""
-
-    def error(self, message: str):
-        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
-
-
-def main(argv: list[str] | None = None) -> int:
-    """The ``shapes`` commands on their own: ``python -m morphbench.shapes.cli shapes list``."""
-    parser = _Parser(prog="morphbench")
-    add_shapes_commands(parser.add_subparsers(dest="command", required=True, parser_class=_Parser))
-    args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except ConfigError as exc:
-        print(f"morphbench: error: {exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-
-
-if __name__ == "__main__":
-    sys.exit(main())
