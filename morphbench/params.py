@@ -221,15 +221,17 @@ class SensorParams:
     """How each unit measures its own displacement along its own forward axis."""
 
     kind: str = "optical"
-    """'optical': an optical-flow sensor under the unit looking at the textured ground (OpticalParams);
-    'ideal': the unit's true displacement (ground truth, also recorded as u_true in every run)."""
+    """'optical': an optical-flow sensor under the unit looking at the textured ground (OpticalParams), its images
+    cut out of the texture; 'camera': the same sensor with its images rendered by PyBullet's own camera (about 60x
+    slower, for validation); 'ideal': the unit's true displacement (ground truth, also recorded as u_true in every
+    run)."""
     sample_period: float = 0.125
     """s, how often the ideal sensor reads the unit's pose; the ground truth of an optical run is sampled at the
     optical frame rate instead, so both read the same poses."""
     optical: OpticalParams = field(default_factory=lambda: OpticalParams())
 
 
-SENSOR_KINDS = ("optical", "ideal")
+SENSOR_KINDS = ("optical", "camera", "ideal")
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -28,8 +28,10 @@ from morphbench.params import (
     SensorParams,
 )
 from morphbench.physics import World
+from morphbench.physics.camera import CameraGround
 from morphbench.sensing import GroundTexture, IdealSensor, OpticalSensor, Sensor
 from morphbench.shapes import Shape, load_shape, params_from_dict
+from morphbench.shapes.transforms import shuffle_order
 
 NOISE_STREAM = 1  # SeedSequence([seed, NOISE_STREAM, unit]) is unit's measurement-noise stream; 0 is its learner's
 OPTICAL_STREAM = 5  # SeedSequence([seed, OPTICAL_STREAM]): the optical sensors' image noise
@@ -83,13 +85,17 @@ class RunConfig:
             raise ConfigError(source, "config", f"a run configuration written by morphbench ({exc})") from None
 
 
-def make_sensor(params: SensorParams, n_units: int, environment: EnvironmentParams, seed: int) -> Sensor:
-    """The sensor bank a run uses; an optical one gets its own image-noise stream from the run seed."""
+def make_sensor(params: SensorParams, n_units: int, environment: EnvironmentParams, seed: int,
+                world: World | None = None) -> Sensor:
+    """The sensor bank a run uses in ``world``; an optical one gets its own image-noise stream from the run seed."""
     if params.kind == "ideal":
         return IdealSensor(n_units, params.sample_period)
-    if params.kind == "optical":
+    if params.kind in ("optical", "camera"):
         rng = np.random.default_rng(np.random.SeedSequence([seed, OPTICAL_STREAM]))
-        return OpticalSensor(n_units, params.optical, ground_texture(environment.ground), rng, source="sensor.optical")
+        ground = ground_texture(environment.ground)
+        if params.kind == "camera":
+            ground = CameraGround(world.client, ground)
+        return OpticalSensor(n_units, params.optical, ground, rng, source="sensor.optical")
     raise ConfigError("--sensor", "sensor", f"one of {', '.join(SENSOR_KINDS)}", params.kind)
 
 
@@ -138,8 +144,6 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
     shape, lp, n = config.shape, config.learner_params, config.shape.n_units
     learners = make_learners(load_learner_class(config.learner), lp, config.seed, n)
     noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u])) for u in range(n)]
-    sensor = make_sensor(config.sensor, n, config.environment, config.seed)
-    truth = IdealSensor(n, sample_period=sensor.sample_period)  # same ticks as the sensor: poses are read once
     records = RunRecords(config)
     order, damage, noise = np.arange(n), [""] * n, config.environment.noise
     events = {}
@@ -148,6 +152,8 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
     started = time.perf_counter()
     cycle, to_mm_per_cycle = shape.actuator.cycle_time, 1000.0 / lp.cycles_per_step
     with World(shape, config.physics, config.environment) as world:
+        sensor = make_sensor(config.sensor, n, config.environment, config.seed, world)
+        truth = IdealSensor(n, sample_period=sensor.sample_period)  # same ticks as the sensor: poses are read once
         observe = (lambda k: on_tick(world)) if on_tick is not None else None
         world.set_phases([learner.phase for learner in learners])
         world.advance(world.ticks_in(lp.warmup_cycles * cycle), observe)
@@ -160,7 +166,7 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
                 elif event.kind == "damage":
                     damage[event.unit - 1] = event.mode
                 elif event.kind == "shuffle":
-                    order = order[np.random.default_rng(np.random.SeedSequence([event.seed, 4])).permutation(n)]
+                    order = order[shuffle_order(n, event.seed)]  # the permutation of the shape transform
                 elif event.kind == "cut":
                     world.cut(event.link - 1)
                 if event.kind in ("damage", "shuffle"):
