@@ -20,7 +20,7 @@ import pytest
 
 from morphbench.bench import DaskExecutor, LocalExecutor, add_bench_commands, build_report, load_suite, run_suite
 from morphbench.bench import jobs as bench_jobs
-from morphbench.bench.metrics import condition_metrics, curves, fit_exponential, steps_to_reach
+from morphbench.bench.metrics import condition_metrics, curves, fit_exponential, recovery_steps, steps_to_reach
 from morphbench.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -295,6 +295,95 @@ def test_suites_use_the_ideal_sensor_unless_told_and_put_noise_in_the_run_config
     assert "sensor_optical_frame_rate" not in ideal[0].condition
 
 
+def test_environments_are_an_axis_and_events_apply_to_every_run_of_an_experiment(tmp_path):
+    text = f"""
+        [[experiment]]
+        name = "world"
+        shapes = ["{SHAPES / 'chain-2.toml'}", "{SHAPES / 'chain-3.toml'}"]
+        noise = [0.0, 0.5]
+        seeds = 2
+        steps = 6
+        environments = [{{}}, {{friction_field = {{amplitude = 0.3}}}}, {{name = "slippery", friction_scale = 0.5}}]
+        [[experiment.events]]
+        step = 4
+        kind = "noise"
+        sigma = 1.0
+        [[experiment.events]]
+        step = 2
+        kind = "damage"
+        unit = 2
+        mode = "stuck"
+        [[experiment]]
+        name = "own-noise"
+        shapes = ["{SHAPES / 'chain-2.toml'}"]
+        steps = 6
+        [[experiment.environments]]
+        name = "quiet"
+        [[experiment.environments]]
+        name = "noisy"
+        noise = 0.7
+        vibration = 0.8
+    """
+    suite = load_suite(write_suite(tmp_path, text))
+    world, own = suite.experiments
+    assert len(world.run_ids) == 2 * 3 * 2 * 2 and len(world.condition_ids) == 12
+    assert set(world.varying) == {"shape", "shape_id", "n_units", "noise", "environment", "environment_id"}
+    runs = [suite.runs[i] for i in world.run_ids]
+    assert [r.condition["environment"] for r in runs[:12:2]] == ["default", "default", "friction_field.amplitude=0.3",
+                                                                 "friction_field.amplitude=0.3", "slippery", "slippery"]
+    assert {r.condition["events"] for r in runs} == {"step 2 damage unit=2 mode=stuck; step 4 noise sigma=1.0"}
+    field, slippery = runs[4].config.environment, runs[8].config.environment
+    assert field.friction_field.amplitude == 0.3 and field.friction_scale == 1.0 and field.noise == 0.0
+    assert slippery.friction_scale == 0.5 and runs[10].config.environment.noise == 0.5
+    assert [(e.step, e.kind) for e in runs[0].config.events] == [(2, "damage"), (4, "noise")]
+    # the environment's noise is the run's noise, and the condition's noise column
+    quiet, noisy = (suite.runs[i] for i in own.run_ids)
+    assert (quiet.condition["noise"], noisy.condition["noise"]) == (0.0, 0.7)
+    assert noisy.config.environment.noise == 0.7 and noisy.config.environment.vibration == 0.8
+    # run ids change with the environment and with the events; without either they are the suite's usual ones
+    plain = load_suite(write_suite(tmp_path, text.split("[[experiment.events]]")[0], "plain.toml"))  # no events
+    plain_ids = set(plain.runs)
+    assert len(plain_ids) == 24 and len({r.condition_id for r in plain.runs.values()}) == 12
+    assert not plain_ids & set(world.run_ids)
+    usual = load_suite(write_suite(tmp_path, text.split("environments")[0], "usual.toml"))
+    assert set(usual.experiments[0].run_ids) < plain_ids  # the default environment, no events: the same runs
+
+
+def test_a_suite_with_environments_events_and_a_scan_environment_runs_and_records_them(tmp_path):
+    path = write_suite(tmp_path, f"""
+        [[experiment]]
+        name = "drop"
+        shapes = ["{SHAPES / 'chain-2.toml'}"]
+        steps = 3
+        environments = [{{name = "plain"}}, {{name = "field", friction_field = {{amplitude = 0.3}}}}]
+        [[experiment.events]]
+        step = 2
+        kind = "friction"
+        scale = 0.5
+        [[scan]]
+        name = "sticky"
+        shape = "{SHAPES / 'chain-2.toml'}"
+        resolution = 2
+        cycles = 1
+        discard = 0
+        environment = {{friction_scale = 1.5}}
+    """)
+    suite = load_suite(path)
+    assert suite.scans[0].environment.friction_scale == 1.5
+    out = tmp_path / "results"
+    outcome = run_suite(suite, out, LocalExecutor(2), progress=False)
+    assert outcome.failed == 0 and outcome.done == 3
+    steps, runs, scans = outcome.tables["steps"], outcome.tables["runs"], outcome.tables["scans"]
+    assert sorted(runs.environment) == ["field", "plain"] and set(runs.events) == {"step 2 friction scale=0.5"}
+    assert steps.groupby("run_id").apply(lambda g: g.set_index("step").event.to_dict()).tolist() == [
+        {0: "", 1: "", 2: "friction scale=0.5", 3: ""}] * 2
+    assert set(scans.environment) == {"friction_scale=1.5"} and len(scans) == 2
+    # the scan's ground is not the runs': no 'of scan best' for them
+    report = build_report(out).read_text()
+    assert "| environment | runs |" in report and "event at" in report and "Fixed:" in report
+    assert "step 2 friction scale=0.5" in report
+
+
 @pytest.mark.parametrize("body, key, expected", [
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteeps = 10', "experiment[x].steeps", "known keys"),
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteps = "ten"', "experiment[x].steps", "an integer"),
@@ -308,16 +397,42 @@ def test_suites_use_the_ideal_sensor_unless_told_and_put_noise_in_the_run_config
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\n[experiment.learner_params]\ntemperature = [1, "hot"]',
      "experiment[x].learner_params.temperature", "finite number"),
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nenvironments = ["slippery"]', "experiment[x].environments",
-     "do not support environments"),
-    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\n[[experiment.events]]\nstep = 300',
-     "experiment[x].events", "do not support events"),
+     "list of environment tables"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nenvironments = [{{frictionscale = 2}}]',
+     "experiment[x].environments[0].frictionscale", "known keys"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\n[[experiment.environments]]\n[[experiment.environments]]\n'
+     'friction_field = {{amplitude = 1.5}}', "experiment[x].environments[1].friction_field.amplitude", "[0, 1)"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nenvironments = [{{name = "a"}}, {{name = "a", vibration = 0.8}}]',
+     "experiment[x].environments[1].name", "a label no other"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nnoise = [0.5]\nenvironments = [{{noise = 1.0}}]',
+     "experiment[x].environments[0].noise", "no noise here"),
+    ('[defaults]\nnoise = 0.5\n[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nenvironments = [{{noise = 1.0}}]',
+     "experiment[x].environments[0].noise", "no noise here"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nenvironment = {{friction_scale = 2}}', "experiment[x].environment",
+     "environments = ["),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteps = 10\n[[experiment.events]]\nstep = 2\nkind = "damage"\n'
+     'unit = 3\nmode = "no-inflate"', "experiment[x].events[0].unit", "[1, 2] (shape chain-2)"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteps = 10\n[[experiment.events]]\nstep = 2\nkind = "cut"\n'
+     'link = 9', "experiment[x].events[0].link", "a link number"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteps = 10\n[[experiment.events]]\nstep = 2\nkind = "flood"',
+     "experiment[x].events[0].kind", "one of friction"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteps = 10\n[[experiment.events]]\nstep = 2\nkind = "noise"',
+     "experiment[x].events[0].sigma", "a value"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteps = [10, 5]\n[[experiment.events]]\nstep = 8\n'
+     'kind = "noise"\nsigma = 1', "experiment[x].events[0].step", "<= the experiment's steps (5)"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nevents = {{step = 2}}', "experiment[x].events",
+     "an array of tables"),
+    ('[[scan]]\nshape = "{chain2}"\nenvironment = {{noise = 0.5}}', "scan[1].environment.noise", "no noise"),
+    ('[[scan]]\nshape = "{chain2}"\nenvironment = {{friction_scale = -1}}', "scan[1].environment.friction_scale",
+     "a number"),
     ('[[scan]]\nshape = "{chain2}"\nresolution = 0', "scan[1].resolution", "an integer >= 1"),
     ('[[scan]]\nshape = "{chain2}"\ncolour = "red"', "scan[1].colour", "known keys"),
     ('title = "x"', "title", "known keys"),
     ('name = "x"', "experiment", "at least one"),
 ])
 def test_a_bad_suite_file_names_the_file_and_the_key(tmp_path, body, key, expected):
-    path = write_suite(tmp_path, body.replace("{chain2}", str(SHAPES / "chain-2.toml")), "bad-suite.toml")
+    body = body.replace("{chain2}", str(SHAPES / "chain-2.toml")).replace("{{", "{").replace("}}", "}")
+    path = write_suite(tmp_path, body, "bad-suite.toml")
     with pytest.raises(ConfigError) as info:
         load_suite(path)
     message = str(info.value)
@@ -374,6 +489,26 @@ def test_steps_to_reach_is_the_first_step_at_or_over_the_threshold():
     assert steps_to_reach(steps, ubar, 5) == 15
     assert math.isnan(steps_to_reach(steps, ubar, 5.1))
     assert math.isnan(steps_to_reach(steps, ubar, math.nan))
+
+
+def test_recovery_is_the_steps_to_regain_80_percent_of_the_pre_event_level():
+    steps = np.arange(0, 101)
+    # level 5 over the 20 steps before the event at 50 (earlier steps lower: outside the window), a drop to 1, then
+    # a linear climb of 0.5 per step from step 60: 4.0 = 0.8 x 5 is first reached at step 66
+    ubar = np.where(steps < 30, 0.0, 5.0)
+    ubar = np.where(steps >= 50, np.clip(1.0 + 0.5 * (steps - 60), 1.0, 5.0), ubar)
+    assert recovery_steps(steps, ubar, 50) == 16
+    assert recovery_steps(steps, np.where(steps >= 50, 3.9, 5.0), 50) == math.inf  # never
+    assert recovery_steps(steps, np.where(steps >= 50, 4.0, 5.0), 50) == 0  # not hurt
+    assert math.isnan(recovery_steps(steps, np.where(steps >= 50, 4.0, -1.0), 50))  # nothing to regain
+    # in the condition metrics: two runs, one recovers in 16 steps, one never
+    rows = []
+    for run_id, u in (("a", ubar), ("b", np.where(steps >= 50, 1.0, 5.0))):
+        rows += [{"run_id": run_id, "condition_id": "c", "step": k, "ubar_true": v, "acceptance": 0.5,
+                  "event": "friction scale=0.5" if k == 50 else ""} for k, v in zip(steps, u)]
+    runs = pd.DataFrame({"run_id": ["a", "b"], "condition_id": ["c", "c"], "seed": [0, 1], "status": "done"})
+    row = condition_metrics(pd.DataFrame(rows), runs).iloc[0]
+    assert (row.recovery_step, row.recovery_steps, row.recovered_fraction) == (50, 16, 0.5)
 
 
 def synthetic_tables(u_eq=6.0, k_0=20.0, n_steps=200):

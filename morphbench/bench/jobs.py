@@ -41,8 +41,8 @@ def _run(config) -> dict[str, Any]:
 
 
 def _scan(payload) -> dict[str, Any]:
-    shape, phases, physics, cycles, discard = payload
-    ubar = [float(np.mean(velocity_at(shape, p, physics, cycles, discard))) for p in phases]
+    shape, phases, physics, cycles, discard, environment = payload
+    ubar = [float(np.mean(velocity_at(shape, p, physics, cycles, discard, environment))) for p in phases]
     points = pd.DataFrame(np.asarray(phases)[:, 1:], columns=[f"dphi_{i}" for i in range(2, shape.n_units + 1)])
     points["ubar"] = ubar
     bad = np.flatnonzero(~np.isfinite(points.ubar.to_numpy()))

@@ -9,8 +9,11 @@ Per condition (a run's configuration without its seed), over its seeds:
   over the runs that reach it, and the fraction that do); not defined (NaN) when U_eq <= 0 or the fit found no
   plateau within the window (``plateau`` False);
 - acceptance at the end (mean over the last 10% of steps) and over the whole run;
-- the best Ubar of the suite's scans of the same shape (same shape content, same physics) and the fraction of it
-  that learning reached (final Ubar / scan best).
+- the best Ubar of the suite's scans of the same shape (same shape content, same physics, same ground: the
+  environment without its noise) and the fraction of it that learning reached (final Ubar / scan best);
+- for conditions with events, recovery from the first one: the steps each run takes, from the event's step, to
+  regain ``RECOVERY_FRACTION`` of its pre-event level (its mean Ubar over the ``RECOVERY_WINDOW`` steps before the
+  event), ``recovery_steps`` (mean and std over the runs that do) and ``recovered_fraction`` (``recovery_steps``).
 
 Ubar here is ``ubar_true`` by default: the robot's true speed, which measurement noise does not blur (the
 learners themselves only ever see ``ubar``, the measured one). Pass ``column='ubar'`` for the measured one.
@@ -30,6 +33,8 @@ PLATEAU_SPANS = 3.0
 """a fit has a plateau when k_0 <= (last step - first step) / PLATEAU_SPANS."""
 QUANTILES = (0.1, 0.25, 0.5, 0.75, 0.9)
 _GOLDEN = (math.sqrt(5) - 1) / 2
+RECOVERY_FRACTION = 0.8
+RECOVERY_WINDOW = 20
 
 
 def fit_exponential(k, u, n_grid: int = 400) -> dict[str, float]:
@@ -94,6 +99,32 @@ def steps_to_reach(steps: np.ndarray, ubar: np.ndarray, threshold: float) -> flo
     return float(np.asarray(steps)[reached[0]]) if len(reached) else math.nan
 
 
+def recovery_steps(steps, ubar, event_step: int, fraction: float = RECOVERY_FRACTION,
+                   window: int = RECOVERY_WINDOW) -> float:
+    """Steps from ``event_step`` to the first step at or after it whose Ubar regains ``fraction`` of the pre-event
+    level (the mean Ubar over the ``window`` steps before the event, fewer if the run has fewer): 0 when the event
+    did not bring Ubar below that, ``inf`` when the run never regains it ('never'), NaN when the pre-event level is
+    not positive (no forward motion to regain) or there is no step before or after the event."""
+    steps, ubar = np.asarray(steps), np.asarray(ubar, dtype=float)
+    before = ubar[(steps < event_step) & (steps >= event_step - window)]
+    after = steps >= event_step
+    if not len(before) or not after.any():
+        return math.nan
+    level = float(np.mean(before))
+    if not level > 0:
+        return math.nan
+    regained = np.flatnonzero(ubar[after] >= fraction * level)
+    return float(steps[after][regained[0]] - event_step) if len(regained) else math.inf
+
+
+def first_event_step(events) -> int | None:
+    """The learning step of the first event recorded in a run's ``event`` column ('' where none), or None."""
+    if events is None:
+        return None
+    happened = [i for i, text in enumerate(events) if isinstance(text, str) and text]
+    return happened[0] if happened else None
+
+
 def final_value(steps, values) -> float:
     """Mean of ``values`` over the last FINAL_FRACTION (at least one) of the learning steps, step 0 (the initial
     measurement) excluded: the definition of a run's final Ubar in its summary."""
@@ -147,7 +178,8 @@ def condition_metrics(steps: pd.DataFrame, runs: pd.DataFrame, scans: pd.DataFra
         acceptance = mine.groupby("step").acceptance.mean()
         row["acceptance_final"] = final_value(acceptance.index, acceptance.to_numpy())
         row["acceptance_mean"] = float(acceptance[acceptance.index > 0].mean()) if len(acceptance) else math.nan
-        key = (row.get("shape_id"), row.get("physics"))
+        row.update(_recovery(per_run, column))
+        key = (row.get("shape_id"), row.get("physics"), row.get("environment_id", _DEFAULT_GROUND))
         row["scan_best_ubar"] = best.get(key, math.nan)
         row["learned_fraction"] = (row["final_ubar"] / row["scan_best_ubar"]
                                    if row["scan_best_ubar"] > 0 else math.nan)
@@ -155,11 +187,46 @@ def condition_metrics(steps: pd.DataFrame, runs: pd.DataFrame, scans: pd.DataFra
     return pd.DataFrame(rows)
 
 
+def _recovery(per_run: list[pd.DataFrame], column: str) -> dict[str, float]:
+    """recovery_step (the first event's step), recovery_steps (+ std) and recovered_fraction over the runs."""
+    nan = {"recovery_step": math.nan, "recovery_steps": math.nan, "recovery_steps_std": math.nan,
+           "recovered_fraction": math.nan}
+    if not per_run or "event" not in per_run[0]:
+        return nan
+    values, event_steps = [], []
+    for g in per_run:
+        index = first_event_step(g.event.tolist())
+        if index is None:
+            continue
+        event_steps.append(int(g.step.iloc[index]))
+        values.append(recovery_steps(g.step.to_numpy(), g[column].to_numpy(), event_steps[-1]))
+    values = np.array(values)
+    defined = values[~np.isnan(values)]
+    if not len(defined):
+        return {**nan, "recovery_step": float(min(event_steps)) if event_steps else math.nan}
+    finite = defined[np.isfinite(defined)]
+    return {"recovery_step": float(min(event_steps)), "recovery_steps": _mean(finite),
+            "recovery_steps_std": _std(finite), "recovered_fraction": float(len(finite) / len(defined))}
+
+
 def scan_best(scans: pd.DataFrame) -> dict[tuple, float]:
-    """The highest Ubar of any scan point, per (shape_id, physics)."""
+    """The highest Ubar of any scan point, per (shape_id, physics, environment_id) (scans of results written before
+    scans had environments: the default ground)."""
     if scans is None or scans.empty:
         return {}
-    return {key: float(value) for key, value in scans.groupby(["shape_id", "physics"]).ubar.max().items()}
+    scans = scans if "environment_id" in scans else scans.assign(environment_id=_DEFAULT_GROUND)
+    scans = scans.fillna({"environment_id": _DEFAULT_GROUND})
+    grouped = scans.groupby(["shape_id", "physics", "environment_id"]).ubar.max()
+    return {key: float(value) for key, value in grouped.items()}
+
+
+def _default_ground() -> str:
+    from morphbench.bench.suite import environment_id  # the suite module imports pandas-free pieces only
+    from morphbench.params import EnvironmentParams
+    return environment_id(EnvironmentParams())
+
+
+_DEFAULT_GROUND = _default_ground()
 
 
 _RUN_ONLY = {"run_id", "condition_id", "experiments", "seed", "status", "error", "final_ubar", "final_ubar_true",

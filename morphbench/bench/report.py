@@ -60,7 +60,10 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
               "U(k) = U_eq - (U_eq - U_0) exp(-k/k_0) to the seed-averaged curve ('no plateau' when k_0 exceeds a "
               f"third of the run: U_eq would be an extrapolation). Steps to {M.THRESHOLD:g} U_eq: first step a run "
               "reaches it, mean +- std over the runs that do, and the fraction that do. 'of scan best': final Ubar "
-              "over the best Ubar of the suite's scans of the same shape.", ""]
+              "over the best Ubar of the suite's scans of the same shape and ground. With events: the step of the "
+              f"first one, and the steps runs take from it to regain {M.RECOVERY_FRACTION:g} of their mean Ubar over "
+              f"the {M.RECOVERY_WINDOW} steps before it (mean +- std over the runs that do, 'never' if none does), "
+              "and the fraction that do.", ""]
     if n_missing:
         lines += [f"**{n_missing} runs have no results yet**: the bench was interrupted; run it again with the same "
                   "--out to finish.", ""]
@@ -91,12 +94,16 @@ def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.Data
         lines += [experiment["description"], ""]
     mine = metrics.set_index("condition_id").reindex(experiment["condition_ids"]).reset_index()
     varying = _display_columns(experiment["varying"])
-    fixed = [c for c in ("shape", "learner", "step_size", "temperature", "noise", "steps") if c not in varying]
+    fixed = [c for c in ("shape", "learner", "step_size", "temperature", "noise", "environment", "events", "steps")
+             if c not in varying]
     if len(mine):
         first = mine.iloc[0]
         lines += ["Fixed: " + ", ".join(f"{c} = {_fmt(first[c])}" for c in fixed if c in mine) + ".", ""]
+    with_events = "recovery_step" in mine and bool(np.isfinite(mine.recovery_step.astype(float)).any())
     header = [*varying, "runs", "final Ubar", "U_eq", "U_0", "k_0", f"steps to {M.THRESHOLD:g} U_eq", "reached",
               "acceptance (end)", "of scan best"]
+    if with_events:
+        header += ["event at", f"steps to regain {M.RECOVERY_FRACTION:g} of before", "recovered"]
     lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for _, row in mine.iterrows():
         runs = f"{row.runs - row.failed - row.missing}" + (f" ({row.failed} failed)" if row.failed else "") \
@@ -106,6 +113,11 @@ def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.Data
             _fmt(row.u_0, 2), _fmt(row.k_0, 1) if row.plateau else "-",
             _pm(row.steps_to_threshold, row.steps_to_threshold_std, 1),
             _fmt(row.reached_fraction, 2), _fmt(row.acceptance_final, 2), _fmt(row.learned_fraction, 2)]
+        if with_events:
+            never = row.recovered_fraction == 0
+            cells += [str(int(row.recovery_step)) if np.isfinite(row.recovery_step) else "-",
+                      "never" if never else _pm(row.recovery_steps, row.recovery_steps_std, 1),
+                      _fmt(row.recovered_fraction, 2)]
         lines.append("| " + " | ".join(cells) + " |")
     lines.append("")
     labels = {row.condition_id: _label(row, varying) for _, row in mine.iterrows()}
@@ -159,6 +171,8 @@ def _ubar_figure(name, mine, curves, labels, path: Path) -> Path:
             ax.plot(k, row.u_eq - (row.u_eq - row.u_0) * np.exp(-k / row.k_0), "k--", lw=0.8, label="fit")
         if np.isfinite(row.scan_best_ubar):
             ax.axhline(row.scan_best_ubar, color="C3", ls=":", lw=1, label="scan best")
+        if np.isfinite(row.get("recovery_step", math.nan)):
+            ax.axvline(row.recovery_step, color="C2", ls="-.", lw=1, label="event")
         ax.axhline(0, color="k", lw=0.4)
         ax.set_title(f"{labels[condition_id]} ({int(c.runs.max())} runs)", fontsize="small")
         ax.set_xlabel("learning step")
@@ -211,7 +225,7 @@ def _scaling_figure(name, mine, varying, path: Path) -> Path:
 def _display_columns(varying) -> list[str]:
     """The condition columns that tell an experiment's conditions apart, without redundant ones (a shape's id and
     number of units vary with it)."""
-    columns = [c for c in varying if c != "shape_id"]
+    columns = [c for c in varying if c not in ("shape_id", "environment_id")]
     if "shape" in columns and "n_units" in columns:
         columns.remove("n_units")
     if "shape" not in columns and "shape_id" in varying:

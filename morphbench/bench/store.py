@@ -40,7 +40,7 @@ KIND_DIRS = {"run": "runs", "scan": "scans"}
 RESULT = "result.json"
 PLAN = "plan.json"
 SUMMARY_COLUMNS = ("final_ubar", "final_ubar_true", "mean_acceptance", "sensor_error")
-RUN_STEP_COLUMNS = ("step", "time_s", "ubar", "ubar_true", "acceptance")
+RUN_STEP_COLUMNS = ("step", "time_s", "ubar", "ubar_true", "acceptance", "event")
 
 
 class Store:

@@ -18,24 +18,45 @@ A suite file is TOML::
     seeds = 10                          # seeds 0..9, or a list of distinct seeds: [0, 3, 7]
     steps = 300                         # learning steps (a number or a list of numbers)
     physics = "fast"                    # fast or reference (or a list)
+    environments = [{}, {friction_field = {amplitude = 0.3}}]   # an axis of EnvironmentParams tables (see below)
     [experiment.learner_params]         # morphbench.params.LearnerParams fields; a list sweeps the field
     step_size = [0.1, 0.025]
     temperature = 1.0
     [experiment.sensor]                 # morphbench.params.SensorParams fields (a list sweeps), kind "ideal" by
     kind = "ideal"                      #   default in suites; [experiment.sensor.optical] for an optical one
+    [[experiment.events]]               # events applied to every run of the experiment (morphbench.experiment.events)
+    step = 150
+    kind = "damage"
+    unit = 2
+    mode = "no-inflate"
 
     [[scan]]                            # a landscape at fixed phases (morphbench.experiment.scan)
     shape = "../shapes/chain-2.toml"
     resolution = 20                     # points per phase axis (up to 3 units; beyond: `samples` seeded points)
     cycles = 12                         # cycles measured per point (default 12), after `discard` (default 2)
+    environment = {friction_scale = 1.5}   # optional: the EnvironmentParams the scan runs in (no noise: scans
+                                           #   measure the true velocity)
+
+Environments: ``environments`` is an axis like the others, a list of tables each read as a run configuration's
+``[environment]`` (morphbench.experiment.config.environment_from_table: friction_scale, vibration, noise and the
+friction_field and ground sub-tables), inline (``environments = [{}, {friction_scale = 1.5}]``) or as
+``[[experiment.environments]]`` tables. A table may have a ``name``: the label of the environment in the condition
+columns (``environment``); without one the label lists the table's settings (``friction_field.amplitude=0.3``, or
+``default`` for ``{}``). Labels must differ within an experiment. Measurement noise is either the ``noise`` axis or an
+environment's ``noise``, never both (ConfigError).
+
+Events: ``events`` is one array of event tables (``[[experiment.events]]``, as a run configuration's ``[[events]]``),
+applied to every run of the experiment and checked against each of its shapes (a damaged unit or a cut link out of
+range is a ConfigError naming the suite file and ``experiment[NAME].events[i].unit``) and its steps (an event after
+the last step would never happen). The condition column ``events`` summarises them (``step 150 damage unit=2
+mode=no-inflate``; ``none`` without events).
 
 Every key is checked: an unknown key, a value of the wrong type or out of range, a missing morphology file or an
 unusable learner raises ``ConfigError`` naming the suite file and the key (``experiment[S4].noise``).
-``environments`` and ``events`` (friction fields, friction drops, damage, shuffle, cut) are reserved: they are
-rejected with a message saying so until the issues that bring them land.
 
 Each run's id is a hash of everything that determines its records (the shape's content, not its path; the
-learner, its parameters, sensor and physics parameters, noise, steps, seed), so the same run has the same id in any
+learner, its parameters, sensor, environment, events and physics parameters, noise, steps, seed), so the same run has
+the same id in any
 suite, any directory and on any machine: a results directory skips the runs it already holds, and a run listed by two
 experiments of a suite is run once. A condition is a run's configuration without its seed; its id is a hash too.
 """
@@ -57,21 +78,22 @@ import numpy as np
 
 from morphbench import params as P
 from morphbench.errors import ConfigError
+from morphbench.experiment.config import environment_from_table
+from morphbench.experiment.events import Event, parse_events
 from morphbench.experiment.run import RunConfig
 from morphbench.experiment.scan import DEFAULT_CYCLES, DEFAULT_DISCARD, scan_phases
 from morphbench.learning import load_learner_class
 from morphbench.shapes import Shape, load_shape, params_from_table
 
-AXIS_KEYS = ("shapes", "learners", "learner_params", "sensor", "noise", "seeds", "steps", "physics")
+AXIS_KEYS = ("shapes", "learners", "learner_params", "sensor", "noise", "environments", "events", "seeds", "steps",
+             "physics")
 EXPERIMENT_KEYS = ("name", "description", *AXIS_KEYS)
-SCAN_KEYS = ("name", "shape", "resolution", "samples", "cycles", "discard", "seed", "physics")
+SCAN_KEYS = ("name", "shape", "resolution", "samples", "cycles", "discard", "seed", "physics", "environment")
 SUITE_KEYS = ("name", "description", "defaults", "experiment", "scan")
 FUTURE_KEYS = {
-    "environments": "suites do not support environments (friction fields, vibration, friction scale) yet",
-    "environment": "suites do not support environments (friction fields, vibration, friction scale) yet",
-    "events": "suites do not support events (friction drop, damage, shuffle, cut) yet",
+    "environment": "an experiment's environments are a list: environments = [{...}, ...] or [[experiment.environments]]",
 }
-"""Axes the suite format reserves for what later issues bring to suites: rejected, with a message saying so."""
+"""Keys that are easy to mistake for a known one: rejected with a message that points to the right one."""
 
 SCAN_PART_POINTS = 20
 """A scan is split into jobs of this many points, so its points spread over the workers like runs do."""
@@ -136,6 +158,7 @@ class ScanSpec:
     cycles: int
     discard: int
     phases: np.ndarray
+    environment: P.EnvironmentParams = field(default_factory=P.EnvironmentParams)
 
     def part_ids(self) -> list[str]:
         n_parts = max(1, math.ceil(len(self.phases) / SCAN_PART_POINTS))
@@ -180,7 +203,7 @@ class Suite:
             per_point = (scan.cycles + scan.discard) * body_cost(scan.shape)
             for k, part_id in enumerate(scan.part_ids()):
                 phases = scan.phases[k * SCAN_PART_POINTS:(k + 1) * SCAN_PART_POINTS]
-                payload = (scan.shape, phases, scan.physics, scan.cycles, scan.discard)
+                payload = (scan.shape, phases, scan.physics, scan.cycles, scan.discard, scan.environment)
                 jobs.append(Job(part_id, "scan", payload, per_point * len(phases)))
         return jobs
 
@@ -305,19 +328,27 @@ def _expand_experiment(table: dict, name: str, runs: dict[str, RunSpec], ctx: _C
         if preset not in P.PHYSICS_PRESETS:
             raise ConfigError(src, f"{where}.physics", f"one of {', '.join(sorted(P.PHYSICS_PRESETS))}", preset)
     seeds = _seeds(table.get("seeds", [0]), src, f"{where}.seeds")
+    environments = _environments(table.get("environments", [{}]), "noise" in table, src, f"{where}.environments")
+    events = {id(shape): _events(table.get("events", []), shape, steps, src, f"{where}.events") for shape in shapes}
+    summary = events_summary(events[id(shapes[0])])
 
     run_ids: list[str] = []
     condition_ids: list[str] = []
     conditions: list[dict] = []
-    for shape, learner, lp, sensor, noise, n_steps, preset in itertools.product(
-            shapes, learners, learner_params, sensors, noises, steps, physics):
+    for shape, learner, lp, sensor, (label, environment, own_noise), noise, n_steps, preset in itertools.product(
+            shapes, learners, learner_params, sensors, environments, noises, steps, physics):
+        noise = environment.noise if own_noise else noise
+        environment = dataclasses.replace(environment, noise=noise)
         for seed in seeds:
-            config = _run_config(shape, learner, lp, sensor, noise, preset, n_steps, seed, src, f"{where}.noise")
+            config = RunConfig(shape=shape, learner=learner, learner_params=lp, sensor=sensor,
+                               environment=environment, events=events[id(shape)],
+                               physics=P.PHYSICS_PRESETS[preset], steps=n_steps, seed=seed)
             identity = config_identity(config, noise, preset)
             run_id = stable_hash(identity)
             del identity["seed"]
             condition_id = stable_hash(identity)
             condition = _condition_columns(shape, learner, lp, sensor, noise, preset, n_steps)
+            condition.update(environment=label, environment_id=environment_id(environment), events=summary)
             if run_id not in runs:
                 cycles = lp.warmup_cycles + (n_steps + 1) * (lp.cycles_per_step + lp.discard_cycles)
                 runs[run_id] = RunSpec(run_id, condition_id, condition, seed, config, cost=cycles * body_cost(shape))
@@ -339,10 +370,85 @@ def config_identity(config: RunConfig, noise: float, preset: str) -> dict:
             value = shape_identity(value)
         elif dataclasses.is_dataclass(value):
             value = dataclasses.asdict(value)
+        elif f.name == "events":  # as RunConfig.to_dict writes them: each event's own fields
+            value = [{k: v for k, v in dataclasses.asdict(e).items() if v is not None} for e in value]
         data[f.name] = value
     data["noise"] = noise
     data["physics_preset"] = preset
     return data
+
+
+def environment_id(environment: P.EnvironmentParams) -> str:
+    """A hash of the ground a run or scan moves on (the environment without measurement noise, which changes what
+    learners measure, not the landscape): a scan's best Ubar is compared with the runs in the same environment."""
+    data = dataclasses.asdict(environment)
+    data.pop("noise", None)
+    return stable_hash(data)
+
+
+def events_summary(events: tuple[Event, ...]) -> str:
+    """One text for a condition column: ``step 150 damage unit=2 mode=no-inflate; step 300 noise sigma=0.5``."""
+    return "; ".join(f"step {e.step} {e.describe()}" for e in events) or "none"
+
+
+def _environments(value: Any, noise_axis: bool, src: str, key: str) -> list[tuple[str, P.EnvironmentParams, bool]]:
+    """(label, EnvironmentParams, whether it sets its own noise) for each table of an experiment's environments."""
+    if isinstance(value, dict):
+        value = [value]
+    if not isinstance(value, list) or not value or not all(isinstance(v, dict) for v in value):
+        raise ConfigError(src, key, "a non-empty list of environment tables ([{...}, ...] or "
+                                    "[[experiment.environments]])", value)
+    result, labels, seen = [], set(), set()
+    for index, raw in enumerate(value):
+        where = f"{key}[{index}]"
+        table = dict(raw)
+        name = table.pop("name", None)
+        if name is not None:
+            name = _name(name, src, f"{where}.name")
+        if "noise" in table and noise_axis:
+            raise ConfigError(src, f"{where}.noise", "no noise here when the experiment has a 'noise' axis: give "
+                                                     "measurement noise in one place or the other", table["noise"])
+        environment = environment_from_table(table, src, where)
+        label = name or _environment_label(table)
+        if label in labels:
+            raise ConfigError(src, f"{where}.name", "a label no other environment of the experiment has (give each "
+                                                    "a distinct name)", label)
+        content = json.dumps(dataclasses.asdict(environment), sort_keys=True)
+        if content in seen:
+            raise ConfigError(src, where, "distinct environments (this one repeats another)", raw)
+        labels.add(label)
+        seen.add(content)
+        result.append((label, environment, "noise" in table))
+    return result
+
+
+def _environment_label(table: dict, prefix: str = "") -> str:
+    """``friction_scale=1.5, friction_field.amplitude=0.3``: the settings of an environment table, or ``default``."""
+    parts = []
+    for key, value in table.items():
+        if isinstance(value, dict):
+            inner = _environment_label(value, f"{prefix}{key}.")
+            parts += [inner] if inner != "default" else []
+        else:
+            parts.append(f"{prefix}{key}={value}")
+    return ", ".join(parts) or "default"
+
+
+def _events(items: Any, shape: Shape, steps: list[int], src: str, key: str) -> tuple[Event, ...]:
+    """An experiment's events, validated against one of its shapes and its numbers of steps."""
+    try:
+        events = parse_events(items, src, shape.n_units, len(shape.links))
+    except ConfigError as exc:
+        # parse_events names keys as a run configuration has them (events[0].unit): put them under the experiment
+        sub = exc.key[len("events"):] if exc.key.startswith("events") else f".{exc.key}"
+        expected = exc.expected + (f" (shape {shape.name})" if sub.endswith((".unit", ".link")) else "")
+        raise ConfigError(src, f"{key}{sub}", expected, exc.got) from None
+    for index, item in enumerate(items):
+        if item["step"] > min(steps):
+            raise ConfigError(src, f"{key}[{index}].step", f"a learning step <= the experiment's steps "
+                                                          f"({min(steps)}): a later event never happens",
+                              item["step"])
+    return events
 
 
 def _condition_columns(shape: Shape, learner: str, lp, sensor, noise: float, preset: str, steps: int) -> dict:
@@ -361,26 +467,6 @@ def _condition_columns(shape: Shape, learner: str, lp, sensor, noise: float, pre
             columns[f"sensor_{f.name}"] = value
     columns.update(noise=noise, physics=preset, steps=steps)
     return columns
-
-
-def _run_config(shape, learner, lp, sensor, noise, preset, steps, seed, src, key) -> RunConfig:
-    """A RunConfig with ``noise`` wherever this version of morphbench keeps measurement noise."""
-    kwargs: dict[str, Any] = dict(shape=shape, learner=learner, learner_params=lp, physics=P.PHYSICS_PRESETS[preset],
-                                  steps=steps, seed=seed)
-    sensor_fields = {f.name for f in dataclasses.fields(P.SensorParams)}
-    if "noise" in sensor_fields:
-        kwargs["sensor"] = dataclasses.replace(sensor, noise=noise)
-        return RunConfig(**kwargs)
-    kwargs["sensor"] = sensor
-    env_cls = getattr(P, "EnvironmentParams", None)
-    env_field = next((f.name for f in dataclasses.fields(RunConfig)
-                      if env_cls is not None and (f.default_factory is env_cls or f.type in ("EnvironmentParams",
-                                                                                            env_cls))), None)
-    if env_field is not None:
-        kwargs[env_field] = env_cls(noise=noise)
-    elif noise:
-        raise ConfigError(src, key, "0: this version of morphbench has no measurement noise", noise)
-    return RunConfig(**kwargs)
 
 
 def _expand_scan(table: dict, index: int, ctx: _Context) -> ScanSpec:
@@ -405,19 +491,26 @@ def _expand_scan(table: dict, index: int, ctx: _Context) -> ScanSpec:
     preset = table.get("physics", "fast")
     if preset not in P.PHYSICS_PRESETS:
         raise ConfigError(src, f"{where}.physics", f"one of {', '.join(sorted(P.PHYSICS_PRESETS))}", preset)
+    environment_table = table.get("environment", {})
+    if not isinstance(environment_table, dict):
+        raise ConfigError(src, f"{where}.environment", "a table of EnvironmentParams fields", environment_table)
+    if "noise" in environment_table:
+        raise ConfigError(src, f"{where}.environment.noise", "no noise in a scan's environment: scans measure the "
+                                                              "true velocity", environment_table["noise"])
+    environment = environment_from_table(environment_table, src, f"{where}.environment")
     name = _name(table.get("name", f"{shape.name}-r{resolution}"), src, f"{where}.name")
     phases = scan_phases(shape.n_units, resolution, samples, seed)
     sampled = shape.n_units > 3
     identity = {"shape": shape_identity(shape), "resolution": resolution, "samples": samples if sampled else None,
                 "seed": seed if sampled else None, "cycles": cycles, "discard": discard,
-                "physics": dataclasses.asdict(P.PHYSICS_PRESETS[preset]), "part_points": SCAN_PART_POINTS}
-    if hasattr(P, "EnvironmentParams"):  # the default environment a scan runs in: part of what its numbers depend on
-        identity["environment"] = dataclasses.asdict(P.EnvironmentParams())
+                "physics": dataclasses.asdict(P.PHYSICS_PRESETS[preset]), "part_points": SCAN_PART_POINTS,
+                "environment": dataclasses.asdict(environment)}  # the default one keeps earlier scans' ids
     scan_id = stable_hash(identity)
     columns = {"scan": name, "shape": shape.name, "shape_id": shape_id(shape), "n_units": shape.n_units,
                "resolution": resolution, "samples": len(phases), "cycles": cycles, "discard": discard, "seed": seed,
-               "physics": preset}
-    return ScanSpec(scan_id, name, shape, columns, P.PHYSICS_PRESETS[preset], cycles, discard, phases)
+               "physics": preset, "environment": _environment_label(environment_table),
+               "environment_id": environment_id(environment)}
+    return ScanSpec(scan_id, name, shape, columns, P.PHYSICS_PRESETS[preset], cycles, discard, phases, environment)
 
 
 # --- validation helpers -----------------------------------------------------------------------------------------
@@ -425,7 +518,7 @@ def _expand_scan(table: dict, index: int, ctx: _Context) -> ScanSpec:
 
 def _check_keys(table: dict, allowed, source: str, prefix: str) -> None:
     for key in table:
-        if key in FUTURE_KEYS:
+        if key in FUTURE_KEYS and key not in allowed:
             raise ConfigError(source, f"{prefix}{key}", f"no such key here: {FUTURE_KEYS[key]}")
         if key not in allowed:
             raise ConfigError(source, f"{prefix}{key}", f"one of the known keys {', '.join(sorted(allowed))}")
