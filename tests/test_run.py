@@ -75,3 +75,20 @@ def test_a_thermal_chain_learns_to_move_forward(sensor):
     learned, blind = late_ubar(LearnerParams().temperature), late_ubar(float("inf"))
     assert learned > blind + 0.5, (learned, blind)
     assert learned > 0.8, learned
+
+
+def test_recorded_positions_follow_the_measured_motion():
+    """Each unit's recorded ground position moves by its true velocity times the cycles of the step, also after a
+    shuffle has moved units to other places."""
+    from morphbench.experiment import Event
+
+    lp = LearnerParams()
+    units = run(RunConfig(shape=CHAIN_3, steps=6, seed=4, sensor=SensorParams(kind="ideal"),
+                          events=(Event(step=3, kind="shuffle", seed=1),))).units()
+    x = units.pivot(index="step", columns="unit", values="x_m")
+    u = units.pivot(index="step", columns="unit", values="u_true")
+    moved = x.diff().iloc[1:] * 1000 / lp.cycles_per_step
+    assert np.allclose(moved.drop(index=3), u.iloc[1:].drop(index=3), atol=0.05)  # a shuffle teleports units
+    order = units[units.step == 3].sort_values("position").unit.tolist()
+    front_x = units[(units.step == 3)].set_index("unit").x_m
+    assert front_x[order[0]] > front_x[order[1]] > front_x[order[2]]  # position 1 is at the front

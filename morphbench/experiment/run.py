@@ -188,7 +188,8 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
             kept = np.array([learner.phase for learner in learners], dtype=float)
             piece_of_body = {body: k for k, piece in enumerate(world.pieces()) for body in piece}
             piece = np.array([piece_of_body[shape.units[p]] for p in position]) + 1
-            records.add_step(step, world.time, tried, kept, u_measured, u_true, accepted, position + 1, piece,
+            xy = world.unit_poses()[0][position, :2]  # the world lists units by position
+            records.add_step(step, world.time, tried, kept, u_measured, u_true, accepted, position + 1, piece, xy,
                              "; ".join(event.describe() for event in events.get(step, ())))
             if progress is not None:
                 progress(step, records)
