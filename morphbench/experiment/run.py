@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -125,7 +126,8 @@ def measure(world: World, sensors: list[Sensor], n_cycles: int, on_tick: Callabl
         if on_tick is not None:
             on_tick(world)
 
-    world.advance(n_ticks, sample_due if min(periods) < n_ticks or on_tick is not None else None)
+    # Without an observer the world only calls back on ticks where some sensor may be due.
+    world.advance(n_ticks, sample_due, every=1 if on_tick is not None else math.gcd(*periods))
     poses = world.unit_poses()
     for sensor in sensors:
         sensor.sample(*poses)
@@ -153,7 +155,8 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
     cycle, to_mm_per_cycle = shape.actuator.cycle_time, 1000.0 / lp.cycles_per_step
     with World(shape, config.physics, config.environment) as world:
         sensor = make_sensor(config.sensor, n, config.environment, config.seed, world)
-        truth = IdealSensor(n, sample_period=sensor.sample_period)  # same ticks as the sensor: poses are read once
+        # The ground truth is sampled on the sensor's ticks, so poses are read once; an ideal sensor is its own truth.
+        truth = None if isinstance(sensor, IdealSensor) else IdealSensor(n, sample_period=sensor.sample_period)
         observe = (lambda k: on_tick(world)) if on_tick is not None else None
         world.set_phases([learner.phase for learner in learners])
         world.advance(world.ticks_in(lp.warmup_cycles * cycle), observe)
@@ -178,7 +181,10 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
             tried = np.array([learners[u].propose() if alive[u] else learners[u].phase for u in range(n)], dtype=float)
             world.set_phases(tried[order])
             world.advance(world.ticks_in(lp.discard_cycles * cycle), observe)
-            sensed, true = measure(world, [sensor, truth], lp.cycles_per_step, on_tick)
+            if truth is None:
+                sensed = true = measure(world, [sensor], lp.cycles_per_step, on_tick)[0]
+            else:
+                sensed, true = measure(world, [sensor, truth], lp.cycles_per_step, on_tick)
             u_true = true[position] * to_mm_per_cycle
             u_measured = sensed[position] * to_mm_per_cycle + np.array(
                 [rng.normal(0.0, noise) if noise else 0.0 for rng in noise_rngs])

@@ -122,9 +122,10 @@ class World:
         """How many control ticks make ``duration`` seconds (durations are whole numbers of ticks)."""
         return max(0, round(duration / self.tick))
 
-    def advance(self, n_ticks: int, on_tick=None, pumps: bool = True) -> None:
-        """Run ``n_ticks`` physics ticks. ``on_tick(k)`` is called after tick k (0-based) if given, with ``time`` and
-        ``pressure`` already those at the end of that tick. With ``pumps=False`` every bellows stays empty."""
+    def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
+        """Run ``n_ticks`` physics ticks. ``on_tick(k)`` is called after tick k (0-based) if given and k + 1 is a
+        multiple of ``every``, with ``time`` and ``pressure`` already those at the end of that tick. With
+        ``pumps=False`` every bellows stays empty."""
         if n_ticks <= 0:
             return
         start = self.time
@@ -155,7 +156,7 @@ class World:
                 push(bodies[front], -1, (force * dx, force * dy, force * dz), positions[front], frame, physicsClientId=c)
                 push(bodies[rear], -1, (-force * dx, -force * dy, -force * dz), positions[rear], frame, physicsClientId=c)
             step(physicsClientId=c)
-            if on_tick is not None:
+            if on_tick is not None and (k + 1) % every == 0:
                 self.pressure, self.time = trajectory[k], start + (k + 1) * dt
                 on_tick(k)
         self.pressure, self.time = trajectory[-1], start + n_ticks * dt
