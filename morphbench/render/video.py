@@ -37,17 +37,18 @@ import pybullet as pb
 
 from morphbench.errors import ConfigError
 from morphbench.params import VideoParams
+from morphbench.shapes.export import DUMMY_RGBA, UNIT_RGBA
 
 FORMATS = (".mp4", ".gif")
 FOV = 40.0
 """degrees, vertical field of view of the camera."""
 FILL = 0.55
 """fraction of the frame's width (or depth) the assembly takes when the camera distance is picked automatically."""
-EMPTY_COLOUR = np.array([0.20, 0.45, 0.80])
+EMPTY_COLOUR = np.array(UNIT_RGBA[:3])
 """RGB (0..1) of a unit whose bellows is empty: the world's own unit blue."""
 FULL_COLOUR = np.array([0.90, 0.15, 0.10])
 """RGB of a unit whose bellows is at full pressure."""
-DUMMY_COLOUR = (0.55, 0.55, 0.55, 1.0)
+DUMMY_COLOUR = DUMMY_RGBA
 DAMAGED_COLOUR = (0.05, 0.05, 0.05, 1.0)
 COLOUR_LEVELS = 64
 """pressure is quantised to this many colours, so a body is recoloured only when its colour visibly changes."""
