@@ -13,7 +13,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from morphbench.errors import ConfigError
-from morphbench.params import PHYSICS_PRESETS, SENSOR_KINDS
+from morphbench.params import PHYSICS_PRESETS, SENSOR_KINDS, LearnerParams, SensorParams
 from morphbench.shapes.cli import add_shapes_commands
 from morphbench.bench import add_bench_commands
 from morphbench.render import VideoRecorder, add_render_arguments, render_run, video_params_from_args
@@ -57,12 +57,15 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--learner", help="thermal, flaky or a plug-in package.module:Class")
     run.add_argument("--steps", type=_number(0, low_inclusive=True, integer=True),
                      help="learning steps after the initial measurement (default 100)")
-    run.add_argument("--seed", type=_number(0, low_inclusive=True, integer=True))
-    run.add_argument("--temperature", type=_number(0), help="T in mm/cycle")
-    run.add_argument("--step-size", type=_number(0, 1), help="delta_s in cycles")
-    run.add_argument("--cycles-per-step", type=_number(1, low_inclusive=True, integer=True), help="n_act")
-    run.add_argument("--sensor", choices=SENSOR_KINDS)
-    run.add_argument("--noise", type=_number(0, low_inclusive=True), help="Gaussian measurement noise, mm/cycle")
+    learner, sensor = LearnerParams(), SensorParams()
+    run.add_argument("--seed", type=_number(0, low_inclusive=True, integer=True), help="run seed (default 0)")
+    run.add_argument("--temperature", type=_number(0), help=f"T in mm/cycle (default {learner.temperature:g})")
+    run.add_argument("--step-size", type=_number(0, 1), help=f"delta_s in cycles (default {learner.step_size:g})")
+    run.add_argument("--cycles-per-step", type=_number(1, low_inclusive=True, integer=True),
+                     help=f"n_act, actuation cycles per learning step (default {learner.cycles_per_step})")
+    run.add_argument("--sensor", choices=SENSOR_KINDS, help=f"how units measure their motion (default {sensor.kind})")
+    run.add_argument("--noise", type=_number(0, low_inclusive=True),
+                     help="Gaussian measurement noise, mm/cycle (default 0)")
     _add_physics(run, default=None)
     run.add_argument("--out", help="output directory (default runs/NAME-LEARNER-seedS)")
     run.add_argument("--overwrite", action="store_true", help="replace the records of an earlier run in --out")
