@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 
 class ConfigError(Exception):
     """Bad input from a file, the command line or a plug-in. The CLI prints it on one line and exits with 2."""
@@ -12,3 +14,19 @@ class ConfigError(Exception):
         if got is not ...:
             message += f", got {got!r}"
         super().__init__(message)
+
+
+def require_integer(value: object, source: str, key: str, low: float, high: float = float("inf"),
+                    expected: str | None = None) -> int:
+    """``value`` if it is an integer (not a bool) in [low, high]; else ConfigError (by default 'an integer >= low')."""
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ConfigError(source, key, expected or f"an integer >= {low:g}", value)
+    return value
+
+
+def require_number(value: object, source: str, key: str, low: float, strict: bool = False) -> float:
+    """``value`` as a float if it is a finite number >= low (> low if ``strict``); else ConfigError."""
+    ok = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+    if not ok or (value <= low if strict else value < low):
+        raise ConfigError(source, key, f"a finite number {'>' if strict else '>='} {low:g}", value)
+    return float(value)

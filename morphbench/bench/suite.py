@@ -77,7 +77,7 @@ from typing import Any
 import numpy as np
 
 from morphbench import params as P
-from morphbench.errors import ConfigError
+from morphbench.errors import ConfigError, require_integer, require_number
 from morphbench.experiment.config import environment_from_table
 from morphbench.experiment.events import Event, parse_events
 from morphbench.experiment.run import RunConfig
@@ -319,9 +319,9 @@ def _expand_experiment(table: dict, name: str, runs: dict[str, RunSpec], ctx: _C
     for sensor in sensors:
         if sensor.kind not in P.SENSOR_KINDS:
             raise ConfigError(src, f"{where}.sensor.kind", f"one of {', '.join(P.SENSOR_KINDS)}", sensor.kind)
-    noises = [_number(v, src, f"{where}.noise", low=0.0) for v in _values(table.get("noise", [0.0]), src,
+    noises = [require_number(v, src, f"{where}.noise", 0.0) for v in _values(table.get("noise", [0.0]), src,
                                                                              f"{where}.noise")]
-    steps = [_integer(v, src, f"{where}.steps", low=1) for v in _values(table.get("steps", [100]), src,
+    steps = [require_integer(v, src, f"{where}.steps", low=1) for v in _values(table.get("steps", [100]), src,
                                                                           f"{where}.steps")]
     physics = _values(table.get("physics", ["fast"]), src, f"{where}.physics")
     for preset in physics:
@@ -481,13 +481,13 @@ def _expand_scan(table: dict, index: int, ctx: _Context) -> ScanSpec:
     if shape.n_units < 2:
         raise ConfigError(src, f"{where}.shape", "a shape with at least 2 active units to scan phase differences",
                           table["shape"])
-    resolution = _integer(table.get("resolution", 20), src, f"{where}.resolution", low=1)
+    resolution = require_integer(table.get("resolution", 20), src, f"{where}.resolution", low=1)
     samples = table.get("samples")
     if samples is not None:
-        samples = _integer(samples, src, f"{where}.samples", low=1)
-    cycles = _integer(table.get("cycles", DEFAULT_CYCLES), src, f"{where}.cycles", low=1)
-    discard = _integer(table.get("discard", DEFAULT_DISCARD), src, f"{where}.discard", low=0)
-    seed = _integer(table.get("seed", 0), src, f"{where}.seed", low=0)
+        samples = require_integer(samples, src, f"{where}.samples", low=1)
+    cycles = require_integer(table.get("cycles", DEFAULT_CYCLES), src, f"{where}.cycles", low=1)
+    discard = require_integer(table.get("discard", DEFAULT_DISCARD), src, f"{where}.discard", low=0)
+    seed = require_integer(table.get("seed", 0), src, f"{where}.seed", low=0)
     preset = table.get("physics", "fast")
     if preset not in P.PHYSICS_PRESETS:
         raise ConfigError(src, f"{where}.physics", f"one of {', '.join(sorted(P.PHYSICS_PRESETS))}", preset)
@@ -580,20 +580,8 @@ def _seeds(value: Any, source: str, key: str) -> list[int]:
             raise ConfigError(source, key, "a number of seeds >= 1 (seeds 0..n-1) or a list of distinct seeds", value)
         return list(range(value))
     if isinstance(value, list):
-        return [_integer(v, source, key, low=0) for v in _values(value, source, key)]
+        return [require_integer(v, source, key, low=0) for v in _values(value, source, key)]
     raise ConfigError(source, key, "a number of seeds >= 1 (seeds 0..n-1) or a list of distinct seeds", value)
-
-
-def _integer(value: Any, source: str, key: str, low: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < low:
-        raise ConfigError(source, key, f"an integer >= {low}", value)
-    return value
-
-
-def _number(value: Any, source: str, key: str, low: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < low:
-        raise ConfigError(source, key, f"a finite number >= {low:g}", value)
-    return float(value)
 
 
 def _string(value: Any, source: str, key: str) -> str:

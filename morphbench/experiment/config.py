@@ -37,7 +37,7 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from morphbench.errors import ConfigError
+from morphbench.errors import ConfigError, require_integer
 from morphbench.experiment.events import parse_events
 from morphbench.experiment.run import RunConfig
 from morphbench.learning import load_learner_class
@@ -88,8 +88,8 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path) -> Run
         environment=environment_from_table(_table(table, "environment", source), source, "environment"),
         events=parse_events(table.get("events", []), source, shape.n_units, len(shape.links)),
         physics=physics_from_table(_table(table, "physics", source), source, "physics"),
-        steps=_count(table, "steps", RunConfig.steps, source),
-        seed=_count(table, "seed", RunConfig.seed, source),
+        steps=require_integer(table.get("steps", RunConfig.steps), source, "steps", 0),
+        seed=require_integer(table.get("seed", RunConfig.seed), source, "seed", 0),
     )
 
 
@@ -116,11 +116,4 @@ def _table(table: dict[str, Any], key: str, source: str) -> dict[str, Any]:
     value = table.get(key, {})
     if not isinstance(value, dict):
         raise ConfigError(source, key, "a table", value)
-    return value
-
-
-def _count(table: dict[str, Any], key: str, default: int, source: str) -> int:
-    value = table.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise ConfigError(source, key, "an integer >= 0", value)
     return value

@@ -13,11 +13,10 @@ Each applied event is recorded in ``steps.parquet`` (column ``event``) at the st
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
-from morphbench.errors import ConfigError
+from morphbench.errors import ConfigError, require_integer, require_number
 from morphbench.params import DAMAGE_MODES
 
 EVENT_FIELDS = {
@@ -74,32 +73,21 @@ def parse_events(items: Any, source: str, n_units: int, n_links: int) -> tuple[E
         for key in allowed:
             if key not in item:
                 raise ConfigError(source, f"{where}.{key}", f"a value (a {kind} event needs {', '.join(sorted(allowed))})")
-        values = {"step": _integer(item["step"], 1, math.inf, source, f"{where}.step", "a learning step >= 1")}
+        values = {"step": require_integer(item["step"], source, f"{where}.step", 1, expected="a learning step >= 1")}
         if kind == "friction":
-            values["scale"] = _positive(item["scale"], source, f"{where}.scale", strict=True)
+            values["scale"] = require_number(item["scale"], source, f"{where}.scale", 0, strict=True)
         elif kind == "noise":
-            values["sigma"] = _positive(item["sigma"], source, f"{where}.sigma", strict=False)
+            values["sigma"] = require_number(item["sigma"], source, f"{where}.sigma", 0)
         elif kind == "damage":
-            values["unit"] = _integer(item["unit"], 1, n_units, source, f"{where}.unit", f"a unit number in [1, {n_units}]")
+            values["unit"] = require_integer(item["unit"], source, f"{where}.unit", 1, n_units,
+                                             f"a unit number in [1, {n_units}]")
             if item["mode"] not in DAMAGE_MODES:
                 raise ConfigError(source, f"{where}.mode", f"one of {', '.join(DAMAGE_MODES)}", item["mode"])
             values["mode"] = item["mode"]
         elif kind == "shuffle":
-            values["seed"] = _integer(item["seed"], 0, math.inf, source, f"{where}.seed", "an integer >= 0")
+            values["seed"] = require_integer(item["seed"], source, f"{where}.seed", 0)
         elif kind == "cut":
-            values["link"] = _integer(item["link"], 1, n_links, source, f"{where}.link", f"a link number in [1, {n_links}]")
+            values["link"] = require_integer(item["link"], source, f"{where}.link", 1, n_links,
+                                             f"a link number in [1, {n_links}]")
         events.append(Event(kind=kind, **values))
     return tuple(sorted(events, key=lambda e: e.step))
-
-
-def _integer(value: Any, low: float, high: float, source: str, key: str, expected: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-        raise ConfigError(source, key, expected, value)
-    return value
-
-
-def _positive(value: Any, source: str, key: str, strict: bool) -> float:
-    ok = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
-    if not ok or (value <= 0 if strict else value < 0):
-        raise ConfigError(source, key, f"a finite number {'>' if strict else '>='} 0", value)
-    return float(value)
