@@ -182,10 +182,22 @@ def test_known_subpixel_shifts_are_recovered(ground, move_px, yaw_deg):
     forward=st.floats(-5.0, 5.0), left=st.floats(-5.0, 5.0),
 )
 def test_any_shift_within_range_is_recovered(ground, x, y, yaw, forward, left):
+    """Shifts up to 6 px in any direction are always tracked (the range docs/sensing.md promises); on the corners
+    of the +-5 px square (up to 7.1 px) tracking may be lost at some spots of the texture (seen from 6.5 px on), and
+    is then reported as lost, never as a wrong shift."""
     previous, current = frame_pair(ground, (x, y), yaw, (forward, left))
     shifts, tracked = ShiftEstimator(32)(previous, current)
-    assert tracked[0]
-    assert shifts[0] == pytest.approx([-forward, -left], abs=0.08)
+    if math.hypot(forward, left) <= 6.0:
+        assert tracked[0]
+    if tracked[0]:
+        assert shifts[0] == pytest.approx([-forward, -left], abs=0.08)
+
+
+def test_a_long_diagonal_shift_is_lost_not_misread(ground):
+    """The case hypothesis found: 7.1 px diagonally at this spot is beyond the tracker; it says so."""
+    previous, current = frame_pair(ground, (0.0, 0.01953125), 0.0, (5.0, 5.0))
+    shifts, tracked = ShiftEstimator(32)(previous, current)
+    assert not tracked[0] and np.all(shifts[0] == 0)
 
 
 def test_turning_in_place_is_almost_no_shift(ground):
