@@ -102,7 +102,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def _add_physics(parser: argparse.ArgumentParser, default: str | None) -> None:
     parser.add_argument("--physics", choices=sorted(PHYSICS_PRESETS), default=default,
-                        help="integration setting (fast by default; reference is slower and is what fast is checked against)")
+                        help="physics: fast (PyBullet, the default), reference (PyBullet, finer; what fast is checked against) or "
+                             "quasistatic (springs and friction without inertia, exact and fast; chains only)")
 
 
 def _output_dir(out: str, marker: str, overwrite: bool) -> Path:

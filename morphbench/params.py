@@ -77,15 +77,21 @@ class ActuatorParams:
 
 @dataclass(frozen=True, kw_only=True)
 class PhysicsParams:
-    """Integration settings of the PyBullet world."""
+    """How the assembly's motion is computed: the backend and its integration settings."""
 
+    backend: str = "pybullet"
+    """'pybullet': rigid bodies on a ground plane (morphbench.physics.world), any shape; 'quasistatic': springs and
+    Coulomb friction without inertia (morphbench.physics.quasistatic), exact and fast, for chains and their pieces."""
     timestep: float = 1 / 120
-    """s, physics step."""
+    """s, physics step (quasistatic: the interval between solves; the solution depends on time only through the
+    pressures)."""
     solver_iterations: int = 10
-    """constraint solver iterations per physics step."""
+    """constraint solver iterations per physics step (pybullet only)."""
     settle_time: float = 0.25
-    """s, simulated before the first cycle so the units rest on the ground."""
+    """s, simulated before the first cycle so the units rest on the ground (pybullet only)."""
 
+
+PHYSICS_BACKENDS = ("pybullet", "quasistatic")
 
 FAST_PHYSICS = PhysicsParams()
 """The default: fast, and within a few percent of the reference landscape (docs/calibration.md)."""
@@ -93,7 +99,10 @@ FAST_PHYSICS = PhysicsParams()
 REFERENCE_PHYSICS = PhysicsParams(timestep=1 / 240, solver_iterations=50)
 """Small step and many solver iterations: what the fast setting is measured against."""
 
-PHYSICS_PRESETS = {"fast": FAST_PHYSICS, "reference": REFERENCE_PHYSICS}
+QUASISTATIC_PHYSICS = PhysicsParams(backend="quasistatic", timestep=1 / 200)
+"""The inertia-free limit of the same assembly: the oracle of the PyBullet world, and a fast backend for chains."""
+
+PHYSICS_PRESETS = {"fast": FAST_PHYSICS, "reference": REFERENCE_PHYSICS, "quasistatic": QUASISTATIC_PHYSICS}
 
 
 @dataclass(frozen=True, kw_only=True)

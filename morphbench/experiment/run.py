@@ -28,7 +28,7 @@ from morphbench.params import (
     PhysicsParams,
     SensorParams,
 )
-from morphbench.physics import World
+from morphbench.physics import World, make_world
 from morphbench.physics.camera import CameraGround
 from morphbench.sensing import GroundTexture, IdealSensor, OpticalSensor, Sensor
 from morphbench.shapes import Shape, load_shape, params_from_dict
@@ -95,6 +95,9 @@ def make_sensor(params: SensorParams, n_units: int, environment: EnvironmentPara
         rng = np.random.default_rng(np.random.SeedSequence([seed, OPTICAL_STREAM]))
         ground = ground_texture(environment.ground)
         if params.kind == "camera":
+            if world is None or world.client is None:
+                raise ConfigError("--sensor", "sensor", "optical or ideal with the quasi-static physics (the camera "
+                                  "sensor renders a PyBullet scene)", params.kind)
             ground = CameraGround(world.client, ground)
         return OpticalSensor(n_units, params.optical, ground, rng, source="sensor.optical")
     raise ConfigError("--sensor", "sensor", f"one of {', '.join(SENSOR_KINDS)}", params.kind)
@@ -153,7 +156,7 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
         events.setdefault(event.step, []).append(event)
     started = time.perf_counter()
     cycle, to_mm_per_cycle = shape.actuator.cycle_time, 1000.0 / lp.cycles_per_step
-    with World(shape, config.physics, config.environment) as world:
+    with make_world(shape, config.physics, config.environment) as world:
         sensor = make_sensor(config.sensor, n, config.environment, config.seed, world)
         # The ground truth is sampled on the sensor's ticks, so poses are read once; an ideal sensor is its own truth.
         truth = None if isinstance(sensor, IdealSensor) else IdealSensor(n, sample_period=sensor.sample_period)

@@ -17,7 +17,7 @@ import pandas as pd
 
 from morphbench.experiment.run import measure
 from morphbench.params import FAST_PHYSICS, EnvironmentParams, PhysicsParams
-from morphbench.physics import World
+from morphbench.physics import make_world
 from morphbench.sensing import IdealSensor
 from morphbench.shapes import Shape
 
@@ -41,7 +41,7 @@ def scan_phases(n_units: int, resolution: int, samples: int | None = None, seed:
 def velocity_at(shape: Shape, phases, physics: PhysicsParams = FAST_PHYSICS, cycles: int = DEFAULT_CYCLES,
                 discard: int = DEFAULT_DISCARD, environment: EnvironmentParams = EnvironmentParams()) -> np.ndarray:
     """True velocity of each unit (mm/cycle) at fixed phases, averaged over ``cycles`` after ``discard``."""
-    with World(shape, physics, environment) as world:
+    with make_world(shape, physics, environment) as world:
         world.set_phases(phases)
         world.advance(world.ticks_in(discard * shape.actuator.cycle_time))
         (displacement,) = measure(world, [IdealSensor(shape.n_units, sample_period=0.5)], cycles)

@@ -1,0 +1,359 @@
+"""The quasi-static world: springs and Coulomb friction with no inertia, for assemblies whose links lie on one axis.
+
+Units weigh tens of grams and bellows move over tenths of a second, so inertia is negligible next to friction and a
+chain follows the quasi-static evolution of its springs and friction (../shared/spec, section 3b). Over each tick the
+displacements d of the bodies along the axis minimise the incremental energy
+
+    E(d) = sum_j H_j(d_a(j) - d_b(j) - c_j) + sum_i w_i |d_i|
+
+where H_j is bellows j's elastic energy (k/2 z^2, its force capped at ``max_force``), c_j how far the bellows is
+from its pressure-driven rest length, and w_i = mu_i m_i g body i's friction limit (times scale, field, vibration).
+A body moves only when the spring forces on it exceed its friction, and then only as far as they do.
+
+Along a chain the problem is a path, and it is solved exactly by dynamic programming on the derivative of the
+energy (a monotone piecewise-linear graph per body, two breakpoints more per body): forward messages, then a
+backward pass. The rate-independent solution depends on time only through the pressures, so a tick of a few ms is
+converged (docs/fidelity.md). This is both a fast backend and the oracle the PyBullet world is tested against.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from morphbench.errors import ConfigError
+from morphbench.params import DAMAGE_MODES, EnvironmentParams, PhysicsParams
+from morphbench.physics.friction import FrictionField
+from morphbench.physics.pressure import pressure_trajectory
+from morphbench.shapes.checks import connected_groups
+from morphbench.shapes.model import Shape
+
+GRAVITY = 9.81  # m/s^2, as the PyBullet world
+FIELD_UPDATE_PERIOD = 0.1  # s, as the PyBullet world: units move well under a millimetre in this time
+_IDENTITY = (0.0, 0.0, 0.0, 1.0)
+_AXIS_TOLERANCE = 1e-9  # links whose directions differ by more than this are not on one axis
+
+
+def chain_axis(shape: Shape) -> np.ndarray:
+    """The unit vector every link of ``shape`` lies along; a ConfigError if the links are not all on one line
+    through their bodies (a grid, a stack, a branched assembly)."""
+    positions = np.array([body.position for body in shape.bodies], dtype=float)
+    if not shape.links:
+        return np.array([1.0, 0.0, 0.0])
+    directions = [(positions[link.front] - positions[link.rear]) for link in shape.links]
+    axis = directions[0] / np.linalg.norm(directions[0])
+    degree = np.zeros(len(shape.bodies), dtype=int)
+    for link, direction in zip(shape.links, directions):
+        degree[link.front] += 1
+        degree[link.rear] += 1
+        if np.linalg.norm(np.cross(axis, direction / np.linalg.norm(direction))) > _AXIS_TOLERANCE:
+            break
+    else:
+        if degree.max() <= 2:
+            return axis
+    raise ConfigError(shape.source, "assembly", "a chain (every link on one axis) for the quasi-static physics; "
+                      "use --physics fast or reference for grids, stacks and branched shapes")
+
+
+class QuasiStaticWorld:
+    """The same interface as the PyBullet ``World``: set phases, advance ticks, read poses; damage, cuts, friction.
+
+    Bodies move along the chain's axis only and keep their orientation; they rest on the ground at their shape's
+    height. ``client`` is None: there is no PyBullet scene (a camera sensor needs one).
+    """
+
+    client = None
+
+    def __init__(self, shape: Shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
+        self.shape, self.physics, self.environment = shape, physics, environment
+        self.axis = chain_axis(shape)
+        self.tick = physics.timestep
+        """s, one solve: pressures and positions are updated every tick."""
+        self._rest = np.array([body.position for body in shape.bodies], dtype=float)
+        """m, each body's position at rest (empty bellows)."""
+        self.s = np.zeros(len(shape.bodies))
+        """m, each body's displacement along the axis from its rest position."""
+        self._links = [(link.front, link.rear) for link in shape.links]
+        self._unit_index = {body: k for k, body in enumerate(shape.units)}
+        self.link_units = np.array([-1 if link.unit is None else self._unit_index[link.unit] for link in shape.links],
+                                   dtype=int)
+        self._actuated = self.link_units >= 0
+        self._strokes = np.array([shape.actuator.stroke if link.stroke is None else link.stroke for link in shape.links])
+        self._pitch = np.array([np.linalg.norm(self._rest[f] - self._rest[r]) for f, r in self._links])
+        # +1 where a link's front lies along +axis from its rear: its length is pitch + sign * (s_front - s_rear).
+        self._sign = np.array([np.sign(np.dot(self._rest[f] - self._rest[r], self.axis)) for f, r in self._links])
+        self.intact = np.ones(len(shape.links), dtype=bool)
+        self.pressure = np.zeros(len(shape.links))
+        self.phases = np.zeros(shape.n_units)
+        self.damage = ["" for _ in shape.units]
+        self._stuck_length = np.full(len(shape.links), np.nan)
+        self._friction_scale = environment.friction_scale
+        self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
+        self._weight = np.array([body.mass * GRAVITY for body in shape.bodies])
+        self._base_friction = np.array([body.friction for body in shape.bodies])
+        self._unit_bodies = np.array(shape.units, dtype=int)
+        self._build_paths()
+        self.time = 0.0
+        """s, the pumps' clock (nothing needs settling: bodies start at rest on the ground)."""
+
+    def _build_paths(self) -> None:
+        """Each piece as a path of bodies from one end to the other, with the link between consecutive bodies."""
+        order, starts, pair_link, pair_sign = [], [0], [], []
+        intact_links = [(i, f, r) for i, (f, r) in enumerate(self._links) if self.intact[i]]
+        for piece in self.pieces():
+            neighbours = {body: [] for body in piece}
+            for i, f, r in intact_links:
+                if f in neighbours:
+                    neighbours[f].append((r, i))
+                    neighbours[r].append((f, i))
+            ends = [body for body in piece if len(neighbours[body]) <= 1]
+            previous, body = -1, min(ends)
+            while True:
+                order.append(body)
+                step = [(other, i) for other, i in neighbours[body] if other != previous]
+                if not step:
+                    break
+                (other, i), previous = step[0], body
+                # The pair's target difference s_body - s_other is pair_sign * (length - pitch).
+                pair_link.append(i)
+                pair_sign.append(self._sign[i] if self._links[i][0] == body else -self._sign[i])
+                body = other
+            pair_link.append(-1)  # no pair after a piece's last body
+            pair_sign.append(0.0)
+            starts.append(len(order))
+        self._order = np.array(order, dtype=np.int64)
+        self._starts = np.array(starts, dtype=np.int64)
+        self._pair_link = np.array(pair_link, dtype=np.int64)
+        self._pair_sign = np.array(pair_sign, dtype=float)
+
+    def set_phases(self, phases) -> None:
+        phases = np.asarray(phases, dtype=float)
+        if phases.shape != self.phases.shape:
+            raise ValueError(f"expected {self.phases.shape[0]} phases, got {phases.shape}")
+        self.phases = np.mod(phases, 1.0)
+
+    def ticks_in(self, duration: float) -> int:
+        return max(0, round(duration / self.tick))
+
+    def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
+        """Run ``n_ticks`` ticks; ``on_tick(k)`` after tick k when k + 1 is a multiple of ``every`` (as World)."""
+        if n_ticks <= 0:
+            return
+        start, actuator = self.time, self.shape.actuator
+        trajectory = pressure_trajectory(
+            self.pressure, self.phases[np.maximum(self.link_units, 0)], start, self.tick, n_ticks, actuator
+        ) * (self._actuated if pumps else 0.0)
+        extension = self._rest_lengths(trajectory) - self._pitch  # (n_ticks, n_links)
+        friction = np.broadcast_to(self._base_friction * self._friction_scale, (n_ticks, len(self.s))).copy()
+        if pumps and self.environment.vibration != 1.0:
+            t = start + self.tick * np.arange(n_ticks)
+            pumping = np.mod(t[:, None] / actuator.cycle_time - self.phases, 1.0) < actuator.alpha
+            pumping &= np.array([d != "dead" for d in self.damage])
+            friction[:, self._unit_bodies] *= np.where(pumping, self.environment.vibration, 1.0)
+        limits = friction * self._weight
+        # Segments end where a callback is due or the friction field is read again at the bodies' new places.
+        breaks = set(range(every, n_ticks + 1, every)) if on_tick is not None else set()
+        field_ticks = set(range(0, n_ticks, max(1, round(FIELD_UPDATE_PERIOD / self.tick)))) if self._field else set()
+        breaks |= field_ticks
+        breaks.add(n_ticks)
+        begin, factor = 0, 1.0
+        inverse_k, cap = 1.0 / actuator.stiffness, actuator.max_force
+        for end in sorted(b for b in breaks if b > 0):
+            if begin in field_ticks:
+                xy = self.poses()[0][:, :2]
+                factor = self._field.friction(1.0, xy[:, 0], xy[:, 1])
+            _solve_ticks(self.s, extension[begin:end], limits[begin:end] * factor, self._order, self._starts,
+                         self._pair_link, self._pair_sign, inverse_k, cap)
+            if on_tick is not None and end % every == 0:
+                self.pressure, self.time = trajectory[end - 1], start + end * self.tick
+                on_tick(end - 1)
+            begin = end
+        self.pressure, self.time = trajectory[-1], start + n_ticks * self.tick
+
+    def relax(self, extension, limits) -> None:
+        """One tick: move the bodies to the minimiser of the incremental energy, given each bellows' extension
+        beyond its empty length (m, one per link) and each body's friction limit (N, one per body)."""
+        _solve_ticks(self.s, np.asarray(extension, dtype=float)[None, :], np.asarray(limits, dtype=float)[None, :],
+                     self._order, self._starts, self._pair_link, self._pair_sign, 1.0 / self.shape.actuator.stiffness,
+                     self.shape.actuator.max_force)
+
+    def _rest_lengths(self, trajectory: np.ndarray) -> np.ndarray:
+        """(n_ticks, n_links) rest length of each bellows: a damaged one cannot inflate, a stuck one keeps its length."""
+        extends = np.array([u >= 0 and self.damage[u] not in ("no-inflate", "dead") for u in self.link_units],
+                           dtype=float)
+        rest = self._pitch + self._strokes * trajectory * extends
+        stuck = ~np.isnan(self._stuck_length)
+        rest[:, stuck] = self._stuck_length[stuck]
+        return rest
+
+    def set_friction_scale(self, scale: float) -> None:
+        self._friction_scale = scale
+
+    def set_damage(self, unit: int, mode: str) -> None:
+        if mode not in ("",) + DAMAGE_MODES:
+            raise ValueError(f"damage mode must be '' (healthy) or one of {DAMAGE_MODES}, got {mode!r}")
+        if self.damage[unit] == mode:
+            return
+        self.damage[unit] = mode
+        driven = self.link_units == unit
+        self._stuck_length[driven] = (self._pitch + self._strokes * self.pressure)[driven] \
+            if mode == "stuck" else np.nan
+
+    def cut(self, link: int) -> None:
+        if self.intact[link]:
+            self.intact[link] = False
+            self._build_paths()
+
+    def pieces(self) -> list[list[int]]:
+        return connected_groups(len(self.s), [link for link, intact in zip(self._links, self.intact) if intact])
+
+    def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
+        index = np.arange(len(self.s)) if which is None else np.asarray(which, dtype=int)
+        positions = self._rest[index] + self.s[index, None] * self.axis
+        return positions, np.tile(_IDENTITY, (len(index), 1))
+
+    def unit_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.poses(self.shape.units)
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self) -> QuasiStaticWorld:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+@numba.njit(cache=True)
+def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inverse_k, cap):
+    """Advance the displacements ``s`` (in place) through the ticks of ``extension`` / ``limits``: one exact solve
+    of the incremental energy per tick and piece."""
+    n = len(order)
+    width = 2 * n + 4
+    xs = np.empty((n, width))  # breakpoints (x, s) of each body's subgradient graph, before passing it on
+    ss = np.empty((n, width))
+    us = np.empty((n, width))  # where each breakpoint lands once passed through the spring (backtracking)
+    counts = np.empty(n, dtype=np.int64)
+    clip_lo = np.empty(n, dtype=np.bool_)
+    clip_hi = np.empty(n, dtype=np.bool_)
+    cs = np.empty(n)
+    d = np.empty(n)
+    bx = np.empty(width)
+    bs = np.empty(width)
+    for t in range(extension.shape[0]):
+        for p in range(len(starts) - 1):
+            a, b = starts[p], starts[p + 1]
+            m = b - a
+            # Forward: F_0 = w_0 |x|; F_{i+1}(y) = min_x F_i(x) + H(x - y - c_i) + w_{i+1} |y|.
+            cnt = 0
+            for i in range(m):
+                body = order[a + i]
+                w = limits[t, body]
+                if i == 0:
+                    xs[i, 0], ss[i, 0], xs[i, 1], ss[i, 1] = 0.0, -w, 0.0, w
+                    counts[i] = 2
+                else:
+                    # The incoming message's derivative at 0, then a jump of 2 w there.
+                    k = 0
+                    cnt = counts[i - 1]
+                    px, pu = xs[i - 1], us[i - 1]
+                    ps = ss[i - 1]
+                    # incoming graph: points (pu, ps) (already transformed), horizontal rays at both ends
+                    j = 0
+                    while j < cnt and pu[j] < 0.0:
+                        bx[k], bs[k] = pu[j], ps[j] - w
+                        k += 1
+                        j += 1
+                    if j < cnt and pu[j] == 0.0:
+                        lo = ps[j]
+                        while j < cnt and pu[j] == 0.0:
+                            hi = ps[j]
+                            j += 1
+                    else:
+                        if j == 0:
+                            lo = ps[0]
+                        elif j == cnt:
+                            lo = ps[cnt - 1]
+                        else:
+                            x0, x1 = pu[j - 1], pu[j]
+                            lo = ps[j - 1] + (ps[j] - ps[j - 1]) * (0.0 - x0) / (x1 - x0)
+                        hi = lo
+                    bx[k], bs[k] = 0.0, lo - w
+                    bx[k + 1], bs[k + 1] = 0.0, hi + w
+                    k += 2
+                    while j < cnt:
+                        bx[k], bs[k] = pu[j], ps[j] + w
+                        k += 1
+                        j += 1
+                    for q in range(k):
+                        xs[i, q], ss[i, q] = bx[q], bs[q]
+                    counts[i] = k
+                if i == m - 1:
+                    break
+                # Pass F_i through spring i: clip at the force cap, then map x -> x - c + s / k.
+                link = pair_link[a + i]
+                c = pair_sign[a + i] * extension[t, link] - (s[body] - s[order[a + i + 1]])
+                cs[i] = c
+                cnt = counts[i]
+                k = 0
+                clip_lo[i] = ss[i, 0] < -cap
+                clip_hi[i] = ss[i, cnt - 1] > cap
+                for q in range(cnt):
+                    x, v = xs[i, q], ss[i, q]
+                    if v < -cap:
+                        if q + 1 < cnt and ss[i, q + 1] > -cap:  # the crossing of -cap
+                            f = (-cap - v) / (ss[i, q + 1] - v)
+                            bx[k], bs[k] = x + f * (xs[i, q + 1] - x), -cap
+                            k += 1
+                        continue
+                    if v > cap:
+                        if q > 0 and ss[i, q - 1] < cap:
+                            f = (cap - ss[i, q - 1]) / (v - ss[i, q - 1])
+                            bx[k], bs[k] = xs[i, q - 1] + f * (x - xs[i, q - 1]), cap
+                            k += 1
+                        break
+                    bx[k], bs[k] = x, v
+                    k += 1
+                for q in range(k):
+                    xs[i, q], ss[i, q] = bx[q], bs[q]
+                    us[i, q] = bx[q] - c + bs[q] * inverse_k
+                counts[i] = k
+            # The last body: where its subgradient graph crosses 0 (the point of the zero set nearest no motion).
+            i = m - 1
+            cnt = counts[i]
+            lo_x, hi_x = -np.inf, np.inf
+            if ss[i, 0] < 0.0:
+                lo_x = np.inf
+                for q in range(1, cnt):
+                    if ss[i, q] >= 0.0:
+                        v0 = ss[i, q - 1]
+                        lo_x = xs[i, q - 1] + (xs[i, q] - xs[i, q - 1]) * (0.0 - v0) / (ss[i, q] - v0)
+                        break
+            if ss[i, cnt - 1] > 0.0:
+                hi_x = -np.inf
+                for q in range(cnt - 2, -1, -1):
+                    if ss[i, q] <= 0.0:
+                        v0 = ss[i, q + 1]
+                        hi_x = xs[i, q + 1] + (xs[i, q] - xs[i, q + 1]) * (0.0 - v0) / (ss[i, q] - v0)
+                        break
+            d[i] = min(max(0.0, lo_x), hi_x)
+            # Backward: body i's displacement from body i + 1's, through the map x -> u of spring i.
+            for i in range(m - 2, -1, -1):
+                y = d[i + 1]
+                cnt = counts[i]
+                if y <= us[i, 0]:
+                    d[i] = xs[i, 0] if clip_lo[i] else y + cs[i] - ss[i, 0] * inverse_k
+                elif y >= us[i, cnt - 1]:
+                    d[i] = xs[i, cnt - 1] if clip_hi[i] else y + cs[i] - ss[i, cnt - 1] * inverse_k
+                else:
+                    q = 1
+                    while us[i, q] < y:
+                        q += 1
+                    u0, u1 = us[i, q - 1], us[i, q]
+                    f = 0.0 if u1 == u0 else (y - u0) / (u1 - u0)
+                    d[i] = xs[i, q - 1] + f * (xs[i, q] - xs[i, q - 1])
+            for i in range(m):
+                s[order[a + i]] += d[i]
