@@ -2,6 +2,11 @@
 
     python benchmarks/run_speed.py                 # chain-3 and chain-20, 300 learning steps each
     python benchmarks/run_speed.py --steps 50      # quicker
+    git worktree add /tmp/before COMMIT && python benchmarks/run_speed.py --compare /tmp/before
+                                                   # against an earlier commit, side by side
+
+The quasi-static backend is timed on the same runs (targets: chain-3 <= 1 s, chain-20 <= 3 s); its first run in a
+process includes loading the compiled solver from numba's cache, so it is timed after one warm-up run.
 
 For each shape and sensor (ideal, optical) it times one full run (``morphbench.experiment.run``: pressures, bellows
 forces, sensors, learners, records), then, in the same process, the bare ``stepSimulation`` loop of a world with the same bodies, timestep and
@@ -12,13 +17,18 @@ chain-3 in <= 10 s, chain-20 in <= 60 s, overhead <= 1.2.
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import json
+import os
 import platform
+import subprocess
+import sys
 import time
 
 import pybullet as pb
 
 from morphbench.experiment import RunConfig, run
-from morphbench.params import SensorParams
+from morphbench.params import QUASISTATIC_PHYSICS, SensorParams
 from morphbench.physics import World
 from morphbench.shapes import load_shape
 
@@ -33,24 +43,54 @@ def bare_stepping(shape, n_ticks: int) -> float:
         return time.perf_counter() - started
 
 
+def run_time(path: str, steps: int, sensor: str, physics=None) -> tuple[float, float]:
+    """Wall time of one run and its simulated time (s)."""
+    config = RunConfig(shape=load_shape(path), steps=steps, seed=0, sensor=SensorParams(kind=sensor))
+    if physics is not None:
+        config = dataclasses.replace(config, physics=physics)
+    records = run(config)
+    return records.wall_time, float(records.steps().time_s.iloc[-1])
+
+
+def run_time_elsewhere(tree: str, path: str, steps: int, sensor: str) -> float:
+    """Wall time of the same run with the package of another checkout (a worktree of an earlier commit)."""
+    code = ("import json, sys; sys.path.insert(0, sys.argv[1]); sys.path.insert(0, sys.argv[5]);"
+            "import run_speed; print(json.dumps(run_speed.run_time(sys.argv[2], int(sys.argv[3]), sys.argv[4])))")
+    env = {**os.environ, "PYTHONPATH": tree}
+    out = subprocess.run([sys.executable, "-c", code, tree, path, str(steps), sensor, os.path.dirname(__file__)],
+                         env=env, capture_output=True, text=True, check=True, cwd=tree)
+    return json.loads(out.stdout.strip().splitlines()[-1])[0]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=300)
+    parser.add_argument("--compare", metavar="TREE", help="a checkout of an earlier commit to time side by side")
     parser.add_argument("shapes", nargs="*", default=["shapes/chain-3.toml", "shapes/chain-20.toml"])
     args = parser.parse_args()
     print(f"# {time.strftime('%Y-%m-%d')} {platform.machine()} {platform.processor() or ''} python {platform.python_version()}")
-    print("| shape | sensor | learning steps | simulated s | run wall s | bare stepping s | overhead ratio |")
-    print("|---|---|---|---|---|---|---|")
+    print("| shape | sensor | learning steps | simulated s | run wall s | bare stepping s | overhead ratio |"
+          + (" earlier commit wall s | ratio now / earlier |" if args.compare else ""))
+    print("|---|---|---|---|---|---|---|" + ("---|---|" if args.compare else ""))
     for path in args.shapes:
         shape = load_shape(path)
         for sensor in ("ideal", "optical"):
-            records = run(RunConfig(shape=shape, steps=args.steps, seed=0, sensor=SensorParams(kind=sensor)))
-            simulated = records.steps().time_s.iloc[-1]  # the pumps' clock: warm-up and every learning step
+            wall, simulated = run_time(path, args.steps, sensor)  # the pumps' clock: warm-up and every step
             with World(shape) as world:
                 n_ticks = world.ticks_in(simulated)
             bare = bare_stepping(shape, n_ticks)
-            print(f"| {shape.name} | {sensor} | {args.steps} | {simulated:.0f} | {records.wall_time:.2f} | {bare:.2f} | "
-                  f"{records.wall_time / bare:.2f} |", flush=True)
+            row = (f"| {shape.name} | {sensor} | {args.steps} | {simulated:.0f} | {wall:.2f} | {bare:.2f} | "
+                   f"{wall / bare:.2f} |")
+            if args.compare:
+                before = run_time_elsewhere(args.compare, os.path.abspath(path), args.steps, sensor)
+                row += f" {before:.2f} | {wall / before:.2f} |"
+            print(row, flush=True)
+    print("\n| shape | sensor | quasi-static run wall s |\n|---|---|---|")
+    run_time(args.shapes[0], 2, "ideal", QUASISTATIC_PHYSICS)  # load the compiled solver once
+    for path in args.shapes:
+        for sensor in ("ideal", "optical"):
+            wall, _ = run_time(path, args.steps, sensor, QUASISTATIC_PHYSICS)
+            print(f"| {load_shape(path).name} | {sensor} | {wall:.2f} |", flush=True)
 
 
 if __name__ == "__main__":
