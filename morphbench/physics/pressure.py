@@ -7,6 +7,7 @@ at their exact times inside a tick, so velocity varies smoothly with phase inste
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from morphbench.params import ActuatorParams
@@ -43,9 +44,16 @@ def pressure_trajectory(
     a2 = np.where(on, decay2_off, decay2_on)  # the second segment is in the flipped state
     b2 = np.where(on, 0.0, 1.0 - decay2_on)
     a, b = a1 * a2, b1 * a2 + b2
+    return _affine_recurrence(np.asarray(pressure, dtype=float), a, b)
+
+
+@numba.njit(cache=True)
+def _affine_recurrence(p0, a, b):
+    """p_k = a_k p_{k-1} + b_k for every tick k (sequential: compiled, it costs nanoseconds a tick)."""
     out = np.empty_like(a)
-    p = np.asarray(pressure, dtype=float).copy()
-    for k in range(n_ticks):  # a linear recurrence; n_ticks is a few hundred, each step is vectorised over units
-        p = a[k] * p + b[k]
-        out[k] = p
+    p = p0.copy()
+    for k in range(a.shape[0]):
+        for i in range(a.shape[1]):
+            p[i] = a[k, i] * p[i] + b[k, i]
+            out[k, i] = p[i]
     return out
