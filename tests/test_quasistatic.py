@@ -183,3 +183,18 @@ def test_a_run_goes_through_the_run_loop_deterministically():
     a, b = run(config), run(config)
     assert a.steps().equals(b.steps()) and a.units().equals(b.units())
     assert np.all(np.isfinite(a.units().u_measured))
+
+
+def test_a_quasistatic_run_renders_a_video_of_its_bodies(tmp_path):
+    """The quasi-static world has no scene: the recorder draws its bodies in one of its own, where they are."""
+    from morphbench.params import SensorParams, VideoParams
+    from morphbench.render import VideoRecorder
+
+    out = tmp_path / "run.gif"
+    with VideoRecorder(None, out, VideoParams(width=96, height=64, fps=4)) as recorder:
+        run(RunConfig(shape=chain(2), physics=QUASISTATIC_PHYSICS, steps=1, sensor=SensorParams(kind="ideal")),
+            on_tick=recorder)
+        frame = recorder.render()
+    assert out.stat().st_size > 0 and recorder.frames > 10
+    assert np.ptp(np.array(recorder.positions)[:, 0, 0]) > 1e-3  # the front unit was drawn where it moved
+    assert np.any(np.abs(frame.astype(int) - frame[0, 0].astype(int)).sum(axis=2) > 60)  # bodies on the ground

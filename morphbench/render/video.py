@@ -37,6 +37,7 @@ import pybullet as pb
 
 from morphbench.errors import ConfigError
 from morphbench.params import VideoParams
+from morphbench.physics.geometry import body_shapes
 from morphbench.shapes.export import DUMMY_RGBA, UNIT_RGBA
 
 FORMATS = (".mp4", ".gif")
@@ -133,6 +134,28 @@ def pressure_colour(pressure: float, damaged: bool = False) -> tuple[float, floa
     return float(r), float(g), float(b), 1.0
 
 
+class RenderScene:
+    """A PyBullet scene that only draws: the bodies of a world that has none (the quasi-static backend), placed at
+    that world's poses before each frame."""
+
+    def __init__(self, shape):
+        self.client = pb.connect(pb.DIRECT)
+        self.bodies = []
+        for body in shape.bodies:
+            shapes = body_shapes(self.client, body)
+            self.bodies.append(pb.createMultiBody(0, shapes.collision, shapes.visual, basePosition=body.position,
+                                                  physicsClientId=self.client))
+
+    def place(self, positions, orientations) -> None:
+        for uid, position, orientation in zip(self.bodies, positions, orientations):
+            pb.resetBasePositionAndOrientation(uid, position.tolist(), orientation.tolist(),
+                                               physicsClientId=self.client)
+
+    def close(self) -> None:
+        if pb.isConnected(self.client):
+            pb.disconnect(self.client)
+
+
 class VideoRecorder:
     """Renders a world every ``params.speed / params.fps`` simulated seconds into ``path`` (.mp4 or .gif).
 
@@ -182,6 +205,7 @@ class VideoRecorder:
             self._tmp, (params.width, params.height), params.fps, self.path, source)
         self._closed = False
         self.world = None
+        self._scene: RenderScene | None = None
         if world is not None:
             self._attach(world)
 
@@ -220,15 +244,21 @@ class VideoRecorder:
 
     def _attach(self, world) -> None:
         self.world = world
-        shape, c = world.shape, world.client
+        if world.client is None:  # a world with no scene of its own (quasi-static): draw its bodies in ours
+            self._scene = RenderScene(world.shape)
+            c, body_ids = self._scene.client, self._scene.bodies
+        else:
+            c, body_ids = world.client, world.bodies
+        self._client, self._body_ids = c, body_ids
+        shape = world.shape
         width, height = self.params.width, self.params.height
         ground = getattr(world, "ground", None)
         if ground is not None:  # the physics plane: the recorder draws its own ground, far faster
             pb.changeVisualShape(ground, -1, rgbaColor=[0, 0, 0, 0], physicsClientId=c)
         for i, body in enumerate(shape.bodies):
             if body.dummy:
-                pb.changeVisualShape(world.bodies[i], -1, rgbaColor=DUMMY_COLOUR, physicsClientId=c)
-        self._unit_bodies = [world.bodies[i] for i in shape.units]
+                pb.changeVisualShape(body_ids[i], -1, rgbaColor=DUMMY_COLOUR, physicsClientId=c)
+        self._unit_bodies = [body_ids[i] for i in shape.units]
         link_units = np.asarray(world.link_units)
         self._driven = [np.flatnonzero(link_units == k) for k in range(len(shape.units))]
         self._levels: dict[int, object] = {}
@@ -299,7 +329,9 @@ class VideoRecorder:
         names; default ``self.step``)."""
         if self.world is None:
             raise ValueError("VideoRecorder has no world yet: pass one, or let it see a tick first")
-        c = self.world.client
+        c = self._client
+        if self._scene is not None:
+            self._scene.place(*self.world.poses())
         width, height = self.params.width, self.params.height
         self._recolour()
         view = pb.computeViewMatrixFromYawPitchRoll(
@@ -315,7 +347,7 @@ class VideoRecorder:
         return frame
 
     def _recolour(self) -> None:
-        world, c = self.world, self.world.client
+        world, c = self.world, self._client
         pressure = np.asarray(world.pressure)
         damage = getattr(world, "damage", None)
         for k, uid in enumerate(self._unit_bodies):
@@ -387,6 +419,8 @@ class VideoRecorder:
         if self._closed:
             return self.path
         self._closed = True
+        if self._scene is not None:
+            self._scene.close()
         try:
             if self.frames == 0:
                 raise ConfigError(self._source, str(self.path), "a video of at least one frame, but none was recorded "
