@@ -90,7 +90,7 @@ def _parser() -> argparse.ArgumentParser:
                       help="cycles measured per point")
     scan.add_argument("--seed", type=_number(0, low_inclusive=True, integer=True), default=0)
     scan.add_argument("--workers", type=_number(1, low_inclusive=True, integer=True), default=1)
-    _add_physics(scan, default="fast")
+    _add_physics(scan, default="default")
     scan.set_defaults(func=_cmd_scan)
     add_shapes_commands(sub)
     add_bench_commands(sub)
@@ -102,8 +102,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def _add_physics(parser: argparse.ArgumentParser, default: str | None) -> None:
     parser.add_argument("--physics", choices=sorted(PHYSICS_PRESETS), default=default,
-                        help="physics: fast (PyBullet, the default), reference (PyBullet, finer; what fast is checked against) or "
-                             "quasistatic (springs and friction without inertia, exact and fast; chains only)")
+                        help="physics: default (quasistatic for a chain, fast for other shapes), fast (PyBullet), reference "
+                             "(PyBullet, finer) or quasistatic (springs and friction without inertia, exact; chains only)")
 
 
 def _output_dir(out: str, marker: str, overwrite: bool) -> Path:

@@ -55,8 +55,9 @@ class ActuatorParams:
     by the stroke, loaded it gives way by force / stiffness. Its force is capped at ``max_force``.
     """
 
-    stroke: float = 0.0096
-    """m, extension at full pressure with no load."""
+    stroke: float = 0.0105
+    """m, extension at full pressure with no load. It scales the gait: 10.5 mm puts the quasi-static 2-unit
+    curve's peak at +4.7 mm/cycle, the paper's 4.5 (docs/fidelity.md)."""
     rest_gap: float = 0.010
     """m, gap between the two units' faces when the bellows is empty."""
     stiffness: float = 300.0
@@ -79,9 +80,12 @@ class ActuatorParams:
 class PhysicsParams:
     """How the assembly's motion is computed: the backend and its integration settings."""
 
-    backend: str = "pybullet"
+    backend: str = "auto"
     """'pybullet': rigid bodies on a ground plane (morphbench.physics.world), any shape; 'quasistatic': springs and
-    Coulomb friction without inertia (morphbench.physics.quasistatic), exact and fast, for chains and their pieces."""
+    Coulomb friction without inertia (morphbench.physics.quasistatic), exact and fast, for chains and their pieces;
+    'auto': quasistatic for a chain, pybullet for any other shape (and for the camera sensor, which renders a PyBullet
+    scene). The quasi-static model is the converged physics of a chain; the PyBullet world is not yet converged
+    (docs/fidelity.md)."""
     timestep: float = 1 / 120
     """s, physics step (quasistatic: the interval between solves; the solution depends on time only through the
     pressures)."""
@@ -91,18 +95,21 @@ class PhysicsParams:
     """s, simulated before the first cycle so the units rest on the ground (pybullet only)."""
 
 
-PHYSICS_BACKENDS = ("pybullet", "quasistatic")
+PHYSICS_BACKENDS = ("auto", "pybullet", "quasistatic")
 
-FAST_PHYSICS = PhysicsParams()
-"""The default: fast, and within a few percent of the reference landscape (docs/calibration.md)."""
+DEFAULT_PHYSICS = PhysicsParams()
+"""The default: the quasi-static model for chains, the PyBullet world at the fast setting for other shapes."""
 
-REFERENCE_PHYSICS = PhysicsParams(timestep=1 / 240, solver_iterations=50)
+FAST_PHYSICS = PhysicsParams(backend="pybullet")
+"""PyBullet at a step the speed targets allow (docs/fidelity.md measures how far it is from converged)."""
+
+REFERENCE_PHYSICS = PhysicsParams(backend="pybullet", timestep=1 / 240, solver_iterations=50)
 """Small step and many solver iterations: what the fast setting is measured against."""
 
 QUASISTATIC_PHYSICS = PhysicsParams(backend="quasistatic", timestep=1 / 200)
 """The inertia-free limit of the same assembly: the oracle of the PyBullet world, and a fast backend for chains."""
 
-PHYSICS_PRESETS = {"fast": FAST_PHYSICS, "reference": REFERENCE_PHYSICS, "quasistatic": QUASISTATIC_PHYSICS}
+PHYSICS_PRESETS = {"default": DEFAULT_PHYSICS, "fast": FAST_PHYSICS, "reference": REFERENCE_PHYSICS, "quasistatic": QUASISTATIC_PHYSICS}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -111,16 +118,19 @@ class LearnerParams:
 
     step_size: float = 0.1
     """delta_s: a trial phase is the kept phase plus uniform(-1, 1) * step_size, modulo 1."""
-    temperature: float = 1.0
+    temperature: float = 0.5
     """T, mm/cycle: a worse trial (lower velocity by d) is accepted with probability exp(-d / T). Chosen as the
-    spec asks: a noiseless 3-unit Thermal run accepts about 25% of trials once learned (docs/calibration.md)."""
+    spec asks: a noiseless 3-unit Thermal run accepts about 25% of trials once learned (docs/fidelity.md)."""
     cycles_per_step: int = 2
     """n_act: actuation cycles per learning step; a measurement is the displacement over them / n_act."""
     warmup_cycles: int = 1
     """cycles the units run at their initial phases before the first measurement, so that step 0 does not
     measure the start from rest (the first extension from rest is a one-off transient of several mm)."""
-    discard_cycles: int = 0
-    """cycles run after each phase change before the measurement starts (the paper discards none)."""
+    discard_cycles: int = 1
+    """cycles run after each phase change before the measurement starts. Without one, a unit's 2-cycle measurement
+    also holds the change of its own offset in the chain between the window's edges, several mm/cycle after a phase
+    change; the paper (whose velocity calculation is in a supplement we lack) reaches its first result only
+    without that edge effect (docs/fidelity.md, S1 with 0 and 1)."""
     initial_memory: str = "measure"
     """what the memory holds before the first trial: 'measure' (velocity at the initial phase), '-inf' or 'zero'."""
 

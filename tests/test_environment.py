@@ -95,7 +95,9 @@ def test_a_friction_drop_changes_the_landscape():
     before = np.array([velocity_at(shape, [0.0, d], cycles=4).mean() for d in (0.3, 0.4, 0.6)])
     after = np.array([velocity_at(shape, [0.0, d], cycles=4, environment=EnvironmentParams(friction_scale=0.4)).mean()
                       for d in (0.3, 0.4, 0.6)])
-    assert np.all(np.abs(after) > np.abs(before) + 0.3), (before, after)
+    assert np.all(np.abs(after) > np.abs(before) + 0.1), (before, after)
+    assert np.all(np.abs(after[1:]) > np.abs(before[1:]) + 0.5), (before, after)  # most at the peaks, where the
+    # give matters most
 
 
 def test_every_event_is_recorded_at_its_step_and_acts():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from morphbench.experiment import velocity_at
-from morphbench.params import ActuatorParams
+from morphbench.params import FAST_PHYSICS, ActuatorParams
 from morphbench.physics import World, pressure_trajectory, pump_on
 from morphbench.shapes import shape_from_table
 
@@ -53,7 +53,7 @@ def test_pressure_rises_while_pumping_and_vents_after():
 @pytest.mark.parametrize("phase", [0.0, 0.25, 0.7])
 def test_one_unit_and_a_dummy_do_not_travel(phase):
     """One bellows only extends and contracts along the same path: reciprocal motion makes no net progress."""
-    u = velocity_at(chain(1), [phase], cycles=6)
+    u = velocity_at(chain(1), [phase], physics=FAST_PHYSICS, cycles=6)
     assert abs(u[0]) < 0.3, u
 
 
@@ -83,8 +83,8 @@ def test_peristaltic_wave_moves_forward_and_reversed_wave_backward(units):
     """Pumps firing from front to back, alpha apart, push the chain forward; the mirrored order pulls it back."""
     alpha = ActuatorParams().alpha
     wave = np.arange(units) * alpha % 1.0
-    forward = velocity_at(chain(units), wave, cycles=6).mean()
-    backward = velocity_at(chain(units), (-wave) % 1.0, cycles=6).mean()
+    forward = velocity_at(chain(units), wave, physics=FAST_PHYSICS, cycles=6).mean()
+    backward = velocity_at(chain(units), (-wave) % 1.0, physics=FAST_PHYSICS, cycles=6).mean()
     assert forward > 2.0, forward
     assert backward < -1.0, backward
 
@@ -93,14 +93,14 @@ def test_peristaltic_wave_moves_forward_and_reversed_wave_backward(units):
 def test_equal_phases_give_no_systematic_drift(units):
     """All bellows in step only stretch and shrink the chain: any drift is small next to a real gait."""
     alpha = ActuatorParams().alpha
-    gait = velocity_at(chain(units), np.arange(units) * alpha % 1.0, cycles=6).mean()
-    drift = velocity_at(chain(units), np.zeros(units), cycles=6).mean()
+    gait = velocity_at(chain(units), np.arange(units) * alpha % 1.0, physics=FAST_PHYSICS, cycles=6).mean()
+    drift = velocity_at(chain(units), np.zeros(units), physics=FAST_PHYSICS, cycles=6).mean()
     assert abs(drift) < 0.15 * gait, (drift, gait)
 
 
 def test_symmetric_friction_gives_antisymmetric_scan():
     """With equal friction on every body the 2-unit curve is antisymmetric: Ubar(d) = -Ubar(1 - d)."""
     shape = chain(2, dummy={"friction": 0.5})
-    ahead, behind = (velocity_at(shape, [0.0, x], cycles=6).mean() for x in (0.4, 0.6))
+    ahead, behind = (velocity_at(shape, [0.0, x], physics=FAST_PHYSICS, cycles=6).mean() for x in (0.4, 0.6))
     assert ahead > 2.0
     assert ahead == pytest.approx(-behind, rel=0.3)

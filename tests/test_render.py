@@ -11,7 +11,7 @@ from PIL import Image
 
 from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig, run
-from morphbench.params import VideoParams
+from morphbench.params import LearnerParams, VideoParams
 from morphbench.physics import World
 from morphbench.render import (
     VideoRecorder,
@@ -98,11 +98,14 @@ def test_replay_renders_the_same_motion_as_the_live_recording(tmp_path):
     assert len(live_frames) == len(replay_frames) == live.frames
     assert all(np.array_equal(a, b) for a, b in zip(live_frames, replay_frames))
 
-    # only the chosen steps: step 1 is 2 cycles (4 s) long, 10 frames; the replay stops after it
+    # only the chosen steps: step 1 lasts its discarded and measured cycles, at 10 frames/s and speed 4; the
+    # replay stops after it
     steps = []
     step_1 = VideoParams(width=160, height=90, fps=10, speed=4, steps=(1, 1))
     render_run(tmp_path / "run", tmp_path / "step1.mp4", step_1, progress=lambda *done_of: steps.append(done_of))
-    assert abs(len(decode(tmp_path / "step1.mp4")[0]) - 10) <= 1
+    lp = LearnerParams()
+    expected = (lp.cycles_per_step + lp.discard_cycles) * CHAIN_2.actuator.cycle_time * 10 / 4
+    assert abs(len(decode(tmp_path / "step1.mp4")[0]) - expected) <= 1
     assert steps == [(1, 2), (2, 2)]
 
 

@@ -82,8 +82,8 @@ def test_recorded_positions_follow_the_measured_motion():
     shuffle has moved units to other places."""
     from morphbench.experiment import Event
 
-    lp = LearnerParams()
-    units = run(RunConfig(shape=CHAIN_3, steps=6, seed=4, sensor=SensorParams(kind="ideal"),
+    lp = LearnerParams(discard_cycles=0)  # every cycle of a step is measured
+    units = run(RunConfig(shape=CHAIN_3, steps=6, seed=4, sensor=SensorParams(kind="ideal"), learner_params=lp,
                           events=(Event(step=3, kind="shuffle", seed=1),))).units()
     x = units.pivot(index="step", columns="unit", values="x_m")
     u = units.pivot(index="step", columns="unit", values="u_true")

@@ -17,11 +17,11 @@ A suite file is TOML::
     noise = [0.0, 0.5, 1.0]             # mm/cycle, Gaussian noise on each measured velocity
     seeds = 10                          # seeds 0..9, or a list of distinct seeds: [0, 3, 7]
     steps = 300                         # learning steps (a number or a list of numbers)
-    physics = "fast"                    # fast or reference (or a list)
+    physics = "default"                 # default, fast, reference or quasistatic (or a list)
     environments = [{}, {friction_field = {amplitude = 0.3}}]   # an axis of EnvironmentParams tables (see below)
     [experiment.learner_params]         # morphbench.params.LearnerParams fields; a list sweeps the field
     step_size = [0.1, 0.025]
-    temperature = 1.0
+    temperature = 0.5
     [experiment.sensor]                 # morphbench.params.SensorParams fields (a list sweeps), kind "ideal" by
     kind = "ideal"                      #   default in suites; [experiment.sensor.optical] for an optical one
     [[experiment.events]]               # events applied to every run of the experiment (morphbench.experiment.events)
@@ -323,7 +323,7 @@ def _expand_experiment(table: dict, name: str, runs: dict[str, RunSpec], ctx: _C
                                                                              f"{where}.noise")]
     steps = [require_integer(v, src, f"{where}.steps", low=1) for v in _values(table.get("steps", [100]), src,
                                                                           f"{where}.steps")]
-    physics = _values(table.get("physics", ["fast"]), src, f"{where}.physics")
+    physics = _values(table.get("physics", ["default"]), src, f"{where}.physics")
     for preset in physics:
         if preset not in P.PHYSICS_PRESETS:
             raise ConfigError(src, f"{where}.physics", f"one of {', '.join(sorted(P.PHYSICS_PRESETS))}", preset)
@@ -488,7 +488,7 @@ def _expand_scan(table: dict, index: int, ctx: _Context) -> ScanSpec:
     cycles = require_integer(table.get("cycles", DEFAULT_CYCLES), src, f"{where}.cycles", low=1)
     discard = require_integer(table.get("discard", DEFAULT_DISCARD), src, f"{where}.discard", low=0)
     seed = require_integer(table.get("seed", 0), src, f"{where}.seed", low=0)
-    preset = table.get("physics", "fast")
+    preset = table.get("physics", "default")
     if preset not in P.PHYSICS_PRESETS:
         raise ConfigError(src, f"{where}.physics", f"one of {', '.join(sorted(P.PHYSICS_PRESETS))}", preset)
     environment_table = table.get("environment", {})

@@ -7,7 +7,7 @@
 
     [learner]                 # name: thermal | flaky | package.module:Class, and any LearnerParams field
     name = "thermal"
-    temperature = 1.0
+    temperature = 0.5
 
     [sensor]                  # SensorParams fields
     kind = "ideal"
@@ -18,8 +18,8 @@
     [environment.friction_field]
     amplitude = 0.3
 
-    [physics]                 # preset = "fast" | "reference", or PhysicsParams fields
-    preset = "fast"
+    [physics]                 # preset = "default" | "fast" | "reference" | "quasistatic", and PhysicsParams fields
+    preset = "default"
 
     [[events]]                # see morphbench.experiment.events
     step = 300
@@ -103,9 +103,9 @@ def environment_from_table(table: dict[str, Any], source: str, section: str) -> 
 
 
 def physics_from_table(table: dict[str, Any], source: str, section: str) -> PhysicsParams:
-    """A preset by name (``preset = "fast"``), optionally with fields of PhysicsParams overriding it."""
+    """A preset by name (``preset = "default"``), optionally with fields of PhysicsParams overriding it."""
     table = dict(table)
-    preset = table.pop("preset", "fast")
+    preset = table.pop("preset", "default")
     if preset not in PHYSICS_PRESETS:
         raise ConfigError(source, f"{section}.preset", f"one of {', '.join(PHYSICS_PRESETS)}", preset)
     overrides = params_from_table(PhysicsParams, table, source, section)

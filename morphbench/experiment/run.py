@@ -20,7 +20,7 @@ from morphbench.experiment.records import RunRecords
 from morphbench.learning import load_learner_class, make_learners
 from morphbench.experiment.events import Event
 from morphbench.params import (
-    FAST_PHYSICS,
+    DEFAULT_PHYSICS,
     SENSOR_KINDS,
     EnvironmentParams,
     GroundParams,
@@ -50,7 +50,7 @@ class RunConfig:
     environment: EnvironmentParams = field(default_factory=EnvironmentParams)
     events: tuple[Event, ...] = ()
     """applied at the start of their learning step (morphbench.experiment.events)."""
-    physics: PhysicsParams = FAST_PHYSICS
+    physics: PhysicsParams = DEFAULT_PHYSICS
     steps: int = 100
     """learning steps after the initial measurement (step 0)."""
     seed: int = 0
@@ -156,7 +156,10 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
         events.setdefault(event.step, []).append(event)
     started = time.perf_counter()
     cycle, to_mm_per_cycle = shape.actuator.cycle_time, 1000.0 / lp.cycles_per_step
-    with make_world(shape, config.physics, config.environment) as world:
+    physics = config.physics
+    if physics.backend == "auto" and config.sensor.kind == "camera":  # the camera renders a PyBullet scene
+        physics = dataclasses.replace(physics, backend="pybullet")
+    with make_world(shape, physics, config.environment) as world:
         sensor = make_sensor(config.sensor, n, config.environment, config.seed, world)
         # The ground truth is sampled on the sensor's ticks, so poses are read once; an ideal sensor is its own truth.
         truth = None if isinstance(sensor, IdealSensor) else IdealSensor(n, sample_period=sensor.sample_period)

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from morphbench.experiment.run import measure
-from morphbench.params import FAST_PHYSICS, EnvironmentParams, PhysicsParams
+from morphbench.params import DEFAULT_PHYSICS, EnvironmentParams, PhysicsParams
 from morphbench.physics import make_world
 from morphbench.sensing import IdealSensor
 from morphbench.shapes import Shape
@@ -38,7 +38,7 @@ def scan_phases(n_units: int, resolution: int, samples: int | None = None, seed:
     return np.hstack([np.zeros((len(grid), 1)), grid])
 
 
-def velocity_at(shape: Shape, phases, physics: PhysicsParams = FAST_PHYSICS, cycles: int = DEFAULT_CYCLES,
+def velocity_at(shape: Shape, phases, physics: PhysicsParams = DEFAULT_PHYSICS, cycles: int = DEFAULT_CYCLES,
                 discard: int = DEFAULT_DISCARD, environment: EnvironmentParams = EnvironmentParams()) -> np.ndarray:
     """True velocity of each unit (mm/cycle) at fixed phases, averaged over ``cycles`` after ``discard``."""
     with make_world(shape, physics, environment) as world:
@@ -52,7 +52,7 @@ def _ubar(args) -> float:
     return float(np.mean(velocity_at(*args)))
 
 
-def scan(shape: Shape, resolution: int = 20, *, physics: PhysicsParams = FAST_PHYSICS, cycles: int = DEFAULT_CYCLES,
+def scan(shape: Shape, resolution: int = 20, *, physics: PhysicsParams = DEFAULT_PHYSICS, cycles: int = DEFAULT_CYCLES,
          discard: int = DEFAULT_DISCARD, samples: int | None = None, seed: int = 0, workers: int = 1,
          environment: EnvironmentParams = EnvironmentParams(),
          progress: Callable[[int], None] | None = None) -> pd.DataFrame:

@@ -7,12 +7,19 @@ Two backends behind one interface (set phases, advance ticks, read poses; damage
 from morphbench.errors import ConfigError
 from morphbench.params import PHYSICS_BACKENDS, EnvironmentParams, PhysicsParams
 from morphbench.physics.pressure import pressure_trajectory, pump_on
-from morphbench.physics.quasistatic import QuasiStaticWorld
+from morphbench.physics.quasistatic import QuasiStaticWorld, chain_axis
 from morphbench.physics.world import World
 
 
 def make_world(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
-    """A world of ``shape`` on the backend ``physics.backend``: a PyBullet ``World`` or a ``QuasiStaticWorld``."""
+    """A world of ``shape`` on the backend ``physics.backend``: a PyBullet ``World`` or a ``QuasiStaticWorld``
+    ('auto': the quasi-static one for a chain)."""
+    if physics.backend == "auto":
+        try:
+            chain_axis(shape)
+        except ConfigError:
+            return World(shape, physics, environment)
+        return QuasiStaticWorld(shape, physics, environment)
     if physics.backend == "pybullet":
         return World(shape, physics, environment)
     if physics.backend == "quasistatic":
