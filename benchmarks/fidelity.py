@@ -19,6 +19,7 @@ import pybullet
 from morphbench.experiment import RunConfig, run, scan
 from morphbench.experiment.scan import velocity_at
 from morphbench.params import (
+    DEFAULT_PHYSICS,
     FAST_PHYSICS,
     QUASISTATIC_PHYSICS,
     REFERENCE_PHYSICS,
@@ -75,6 +76,10 @@ def _s1_run(args) -> np.ndarray:
     return records.steps().ubar_true.to_numpy()
 
 
+def _steps(config: RunConfig):
+    return run(config).steps()
+
+
 def s1(shape, physics: PhysicsParams, peak: float, workers: int, seeds: int = 32, steps: int = 100,
        learner_params: LearnerParams = LearnerParams(), sensor: str = "ideal") -> dict:
     """The paper's first result: steps to first reach 0.8 of the scan's peak, how many reach it by step 60, and
@@ -108,27 +113,33 @@ def main() -> None:
         f"({platform.machine()}, {platform.python_version()}, PyBullet API {pybullet.getAPIVersion()}). "
         "Every figure on this page comes from that command; rerun it when the physics or a default changes.",
         "",
-        f"Settings: default `{FAST_PHYSICS}`; reference `{REFERENCE_PHYSICS}`; quasi-static "
-        f"`{QUASISTATIC_PHYSICS}`. Scans: unit 1 at phase 0, a fresh world per point, {DISCARD} cycles dropped, "
+        f"Settings: default `{DEFAULT_PHYSICS}` (a chain runs on the quasi-static model at this timestep); PyBullet "
+        f"fast `{FAST_PHYSICS}`; PyBullet reference `{REFERENCE_PHYSICS}`; quasi-static `{QUASISTATIC_PHYSICS}`. "
+        "Scans: unit 1 at phase 0, a fresh world per point, {DISCARD} cycles dropped, "
         f"{CYCLES} measured; true velocities (mm/cycle).",
         "",
     ]
     curves = {name: curve(chain2, physics, w) for name, physics in
-              (("default", FAST_PHYSICS), ("reference", REFERENCE_PHYSICS), ("reference, half timestep", half),
-               ("quasi-static", QUASISTATIC_PHYSICS))}
+              (("PyBullet fast", FAST_PHYSICS), ("PyBullet reference", REFERENCE_PHYSICS),
+               ("PyBullet reference, half timestep", half), ("quasi-static", QUASISTATIC_PHYSICS),
+               ("quasi-static, half timestep", dataclasses.replace(QUASISTATIC_PHYSICS,
+                                                                   timestep=QUASISTATIC_PHYSICS.timestep / 2)),
+               ("default (quasi-static at the default timestep)", DEFAULT_PHYSICS))}
     d = np.arange(CURVE_POINTS) / CURVE_POINTS
     lines += ["## The 2-unit curve", "", "| setting | " + " | ".join(f"{x:.2f}" for x in d) + " |",
               "|---|" + "---|" * CURVE_POINTS]
     lines += [f"| {name} | {fmt(c)} |" for name, c in curves.items()]
-    qs, default = curves["quasi-static"], curves["default"]
+    qs, default = curves["quasi-static"], curves["PyBullet fast"]
     peak = float(qs.max())
     lines += ["", "| comparison | rms (mm/cycle) | max abs | target |", "|---|---|---|---|",
-              f"| reference vs its half timestep | {rms(curves['reference'], curves['reference, half timestep']):.2f} | "
-              f"{np.abs(curves['reference'] - curves['reference, half timestep']).max():.2f} | rms <= 0.15 |",
-              f"| default vs reference | {rms(default, curves['reference']):.2f} | "
-              f"{np.abs(default - curves['reference']).max():.2f} | rms <= 0.3, max <= 0.6 |",
-              f"| default vs quasi-static | {rms(default, qs):.2f} | {np.abs(default - qs).max():.2f} | rms <= 0.4 |"]
-    for name, c in (("default", default), ("quasi-static", qs)):
+              *(f"| {a} vs {b} | {rms(curves[a], curves[b]):.2f} | {np.abs(curves[a] - curves[b]).max():.2f} | "
+                f"{target} |" for a, b, target in (
+                    ("PyBullet reference", "PyBullet reference, half timestep", "rms <= 0.15"),
+                    ("PyBullet fast", "PyBullet reference", "rms <= 0.3, max <= 0.6"),
+                    ("PyBullet fast", "quasi-static", "rms <= 0.4"),
+                    ("quasi-static", "quasi-static, half timestep", "rms <= 0.15"),
+                    ("default (quasi-static at the default timestep)", "quasi-static", "rms <= 0.15")))]
+    for name, c in (("PyBullet fast", default), ("quasi-static", qs)):
         lo, hi = int(np.argmin(c)), int(np.argmax(c))
         flat = np.abs(c[(d >= 0.1 - 1e-9) & (d <= 0.35 + 1e-9) | (d >= 0.65 - 1e-9) & (d <= 0.9 + 1e-9)]).min()
         lines.append("")
@@ -137,13 +148,13 @@ def main() -> None:
                      f"[0.1, 0.35] and [0.65, 0.9] {flat:.2f} (target >= 0.3).")
 
     maps = {name: landscape(chain3, physics, w) for name, physics in
-            (("default", FAST_PHYSICS), ("reference", REFERENCE_PHYSICS), ("quasi-static", QUASISTATIC_PHYSICS))}
+            (("PyBullet fast", FAST_PHYSICS), ("PyBullet reference", REFERENCE_PHYSICS),
+             ("quasi-static", QUASISTATIC_PHYSICS))}
     lines += ["", f"## The 3-unit map ({MAP_RESOLUTION} x {MAP_RESOLUTION})", "",
               "| comparison | rms (mm/cycle) | max abs | target |", "|---|---|---|---|",
-              f"| default vs reference | {rms(maps['default'], maps['reference']):.2f} | "
-              f"{np.abs(maps['default'] - maps['reference']).max():.2f} | rms <= 0.5 |",
-              f"| default vs quasi-static | {rms(maps['default'], maps['quasi-static']):.2f} | "
-              f"{np.abs(maps['default'] - maps['quasi-static']).max():.2f} | rms <= 0.6 |", ""]
+              *(f"| {a} vs {b} | {rms(maps[a], maps[b]):.2f} | {np.abs(maps[a] - maps[b]).max():.2f} | {target} |"
+                for a, b, target in (("PyBullet fast", "PyBullet reference", "rms <= 0.5"),
+                                     ("PyBullet fast", "quasi-static", "rms <= 0.6"))), ""]
     axis = np.arange(MAP_RESOLUTION) / MAP_RESOLUTION
     for name, values in maps.items():
         k = int(np.argmax(values))
@@ -171,7 +182,7 @@ def main() -> None:
     lines.append(f"\nRigid limit (quasi-static, 10^7 N/m): {fmt(rigid[::2])} at dphi_2 = 0, 0.1, ..., 0.9.")
 
     lines += ["", "## Invariants (ideal sensor, no noise)", "",
-              "| check | default | quasi-static | target |", "|---|---|---|---|"]
+              "| check | PyBullet fast | quasi-static | target |", "|---|---|---|---|"]
     phases1 = (0.0, 0.25, 0.5, 0.75)
     for name, fn, target in (
         ("a unit and a dummy alone, max |U| over phases 0, 0.25, 0.5, 0.75",
@@ -182,9 +193,9 @@ def main() -> None:
     ):
         lines.append(f"| {name} | {fn(FAST_PHYSICS):.3f} | {fn(QUASISTATIC_PHYSICS):.3f} | {target} |")
     equal = {name: curve(chain(2, dummy_friction=chain2.bodies[0].friction), ph, w)
-             for name, ph in (("default", FAST_PHYSICS), ("quasi-static", QUASISTATIC_PHYSICS))}
+             for name, ph in (("PyBullet fast", FAST_PHYSICS), ("quasi-static", QUASISTATIC_PHYSICS))}
     mirror = {name: float(np.abs(c[1:] + c[1:][::-1]).max()) for name, c in equal.items()}
-    lines.append(f"| equal friction everywhere, max |U(d) + U(1 - d)| over the curve | {mirror['default']:.2f} | "
+    lines.append(f"| equal friction everywhere, max |U(d) + U(1 - d)| over the curve | {mirror['PyBullet fast']:.2f} | "
                  f"{mirror['quasi-static']:.2f} | <= 0.3 |")
     for shape, phases in ((chain2, (0, 0.4)), (chain2, (0, 0.6)), (chain2, (0, 0.8)), (chain3, (0, 0.4, 0.8))):
         (m_d, s_d), (m_q, s_q) = (spread(shape, phases, ph) for ph in (FAST_PHYSICS, QUASISTATIC_PHYSICS))
@@ -201,15 +212,28 @@ def main() -> None:
               "|---|---|---|---|---|---|---|"]
     default_lp = LearnerParams()
     protocols = sorted({default_lp.discard_cycles, 0, 1})
-    for name, physics in (("quasi-static", QUASISTATIC_PHYSICS), ("PyBullet default", FAST_PHYSICS)):
+    for name, physics in (("default (quasi-static)", DEFAULT_PHYSICS), ("PyBullet fast", FAST_PHYSICS)):
         for discard in protocols:
             r = s1(chain2, physics, peak, w, learner_params=dataclasses.replace(default_lp, discard_cycles=discard))
             default_mark = " (default)" if discard == default_lp.discard_cycles else ""
             lines.append(f"| {name} | ideal | {discard}{default_mark} | {r['median']:.1f} | {r['by60']} of "
                          f"{r['seeds']} | {r['hold']:.2f} | <= 20, >= 30, >= 0.55 |")
-    r = s1(chain2, FAST_PHYSICS, peak, w, seeds=8, sensor="optical")
-    lines.append(f"| PyBullet default | optical | {default_lp.discard_cycles} (default) | {r['median']:.1f} | "
+    r = s1(chain2, DEFAULT_PHYSICS, peak, w, seeds=8, sensor="optical")
+    lines.append(f"| default (quasi-static) | optical | {default_lp.discard_cycles} (default) | {r['median']:.1f} | "
                  f"{r['by60']} of {r['seeds']} | {r['hold']:.2f} | all 8 by step 60 |")
+    lines += ["", "## Temperature", "",
+              "The spec's rule: a noiseless 3-unit Thermal run accepts about 25% of trials once learned (chain-3, "
+              "default physics, ideal sensor, seeds 0-15, 300 steps, acceptance and true Ubar over steps 150-300).",
+              "", "| T (mm/cycle) | acceptance | Ubar |", "|---|---|---|"]
+    for temperature in (0.25, 0.5, 1.0):
+        lp = dataclasses.replace(default_lp, temperature=temperature)
+        jobs = [RunConfig(shape=chain3, learner_params=lp, sensor=SensorParams(kind="ideal"), steps=300, seed=seed)
+                for seed in range(16)]
+        with ProcessPoolExecutor(w) as pool:
+            tables = list(pool.map(_steps, jobs))
+        mark = " (default)" if temperature == default_lp.temperature else ""
+        lines.append(f"| {temperature}{mark} | {np.mean([t.acceptance.iloc[150:].mean() for t in tables]):.2f} | "
+                     f"{np.mean([t.ubar_true.iloc[150:].mean() for t in tables]):+.2f} |")
     lines += ["", f"Benchmark wall time: {time.perf_counter() - started:.0f} s.", ""]
     Path(args.out).write_text("\n".join(lines), encoding="utf-8")
     print("\n".join(lines))

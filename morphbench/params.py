@@ -3,10 +3,10 @@
 Lengths are metres, masses kilograms, times seconds, forces newtons. Velocities are reported in mm/cycle
 (the paper's unit) only where they leave the simulation: in measurements, records and summaries.
 
-The defaults are calibrated, at the default (fast) physics setting, so that the 2-unit phase scan reproduces the
-paper's curve (forward maximum of about +4.5 mm/cycle near a phase difference of 0.4, backward minimum of about -3
-near 0.55-0.6, about zero at equal phases);
-see docs/calibration.md for the measured curve and how it moves with each parameter.
+The defaults are calibrated on the converged physics of a chain (the quasi-static model) so that the 2-unit phase
+scan has the paper's shape (a forward maximum of about +4.5 mm/cycle near a phase difference of 0.4, a backward
+minimum of about -4.5 near 0.6, no flat stretch) and 2-unit Thermal learners find the peak within about 20 steps;
+docs/calibration.md says why each default is what it is, docs/fidelity.md has the figures.
 """
 
 from __future__ import annotations
