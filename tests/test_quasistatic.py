@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from morphbench.errors import ConfigError
-from morphbench.experiment import RunConfig, run, velocity_at
-from morphbench.params import QUASISTATIC_PHYSICS, ActuatorParams
+from morphbench.experiment import RunConfig, run, scan, velocity_at
+from morphbench.params import QUASISTATIC_PHYSICS, ActuatorParams, SensorParams
 from morphbench.physics import QuasiStaticWorld, make_world, pressure_trajectory
 from morphbench.shapes import load_shape, shape_from_table
 
@@ -187,7 +187,7 @@ def test_a_run_goes_through_the_run_loop_deterministically():
 
 def test_a_quasistatic_run_renders_a_video_of_its_bodies(tmp_path):
     """The quasi-static world has no scene: the recorder draws its bodies in one of its own, where they are."""
-    from morphbench.params import SensorParams, VideoParams
+    from morphbench.params import VideoParams
     from morphbench.render import VideoRecorder
 
     out = tmp_path / "run.gif"
@@ -198,3 +198,35 @@ def test_a_quasistatic_run_renders_a_video_of_its_bodies(tmp_path):
     assert out.stat().st_size > 0 and recorder.frames > 10
     assert np.ptp(np.array(recorder.positions)[:, 0, 0]) > 1e-3  # the front unit was drawn where it moved
     assert np.any(np.abs(frame.astype(int) - frame[0, 0].astype(int)).sum(axis=2) > 60)  # bodies on the ground
+
+
+@pytest.mark.parametrize("units", [2, 3, 7])
+def test_equal_phases_go_nowhere_at_the_default(units):
+    assert abs(velocity_at(chain(units), np.zeros(units), cycles=4).mean()) < 0.2
+
+
+def test_the_default_two_unit_curve_has_the_papers_shape():
+    """Calibration targets of the physics issue, on the default physics: the peak +4.5 +- 0.5 at 0.35-0.45, the
+    minimum between -5 and -3 at 0.55-0.65, and a slope a learner can follow everywhere else."""
+    d = np.arange(20) / 20
+    u = scan(load_shape("shapes/chain-2.toml"), 20, cycles=4).ubar.to_numpy()
+    assert 4.0 <= u.max() <= 5.0 and 0.35 <= d[np.argmax(u)] <= 0.45, u
+    assert -5.0 <= u.min() <= -3.0 and 0.55 <= d[np.argmin(u)] <= 0.65, u
+    shoulders = ((d >= 0.1) & (d <= 0.35)) | ((d >= 0.65) & (d <= 0.9))
+    assert np.abs(u[shoulders]).min() >= 0.3, u
+
+
+def test_the_papers_first_result_on_the_default_physics():
+    """S1: 2-unit Thermal with every default and the ideal sensor, 32 seeds of 100 steps: most runs reach 0.8 of the
+    scan's peak within 20 steps, nearly all by step 60, and they stay near the peak afterwards."""
+    shape = load_shape("shapes/chain-2.toml")
+    peak = scan(shape, 20, cycles=4).ubar.max()
+    first, hold = [], []
+    for seed in range(32):
+        u = run(RunConfig(shape=shape, steps=100, seed=seed, sensor=SensorParams(kind="ideal"))).steps().ubar_true
+        reached = np.flatnonzero(u.to_numpy() >= 0.8 * peak)
+        first.append(reached[0] if len(reached) else 101)
+        hold.append(u.iloc[50:].mean() / peak)
+    assert np.median(first) <= 20, first
+    assert np.sum(np.array(first) <= 60) >= 30, first
+    assert np.mean(hold) >= 0.55, np.mean(hold)
