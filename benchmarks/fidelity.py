@@ -115,7 +115,7 @@ def main() -> None:
         "",
         f"Settings: default `{DEFAULT_PHYSICS}` (a chain runs on the quasi-static model at this timestep); PyBullet "
         f"fast `{FAST_PHYSICS}`; PyBullet reference `{REFERENCE_PHYSICS}`; quasi-static `{QUASISTATIC_PHYSICS}`. "
-        "Scans: unit 1 at phase 0, a fresh world per point, {DISCARD} cycles dropped, "
+        f"Scans: unit 1 at phase 0, a fresh world per point, {DISCARD} cycles dropped, "
         f"{CYCLES} measured; true velocities (mm/cycle).",
         "",
     ]

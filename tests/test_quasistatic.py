@@ -101,7 +101,7 @@ def test_compliant_chain_matches_an_independent_minimiser(seed):
     extension = rng.uniform(0, 0.004, units)
     world.s = rng.normal(0, 0.001, units + 1)
     s0 = world.s.copy()
-    pitch = world._pitch
+    pitch = world._empty_pitch
     # Body i's coordinate minus body i+1's should be the extension (front bodies first, links front to rear).
     world.relax(extension, w)
     reference = coordinate_descent(s0, extension, k, w)
@@ -159,8 +159,8 @@ def test_damage_no_inflate_stops_a_bellows():
         world.set_damage(1, "no-inflate")
         world.advance(world.ticks_in(4.0))
         gaps = -np.diff(world.poses()[0][:, 0])
-    assert gaps[1] == pytest.approx(world._pitch[1], abs=1e-3)  # unit 2's bellows holds its empty length
-    assert gaps[0] > world._pitch[0] - 1e-3
+    assert gaps[1] == pytest.approx(world._empty_pitch[1], abs=1e-3)  # unit 2's bellows holds its empty length
+    assert gaps[0] > world._empty_pitch[0] - 1e-3
 
 
 def test_pressure_is_the_shared_model():

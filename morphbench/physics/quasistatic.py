@@ -18,20 +18,15 @@ converged (docs/fidelity.md). This is both a fast backend and the oracle the PyB
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
 from morphbench.errors import ConfigError
-from morphbench.params import DAMAGE_MODES, EnvironmentParams, PhysicsParams
+from morphbench.params import EnvironmentParams, PhysicsParams
+from morphbench.physics.bellows import FIELD_UPDATE_PERIOD, GRAVITY, Bellows
 from morphbench.physics.friction import FrictionField
-from morphbench.physics.pressure import pressure_trajectory
-from morphbench.shapes.checks import connected_groups
 from morphbench.shapes.model import Shape
 
-GRAVITY = 9.81  # m/s^2, as the PyBullet world
-FIELD_UPDATE_PERIOD = 0.1  # s, as the PyBullet world: units move well under a millimetre in this time
 _IDENTITY = (0.0, 0.0, 0.0, 1.0)
 _AXIS_TOLERANCE = 1e-9  # links whose directions differ by more than this are not on one axis
 
@@ -57,7 +52,7 @@ def chain_axis(shape: Shape) -> np.ndarray:
                       "use --physics fast or reference for grids, stacks and branched shapes")
 
 
-class QuasiStaticWorld:
+class QuasiStaticWorld(Bellows):
     """The same interface as the PyBullet ``World``: set phases, advance ticks, read poses; damage, cuts, friction.
 
     Bodies move along the chain's axis only and keep their orientation; they rest on the ground at their shape's
@@ -67,7 +62,8 @@ class QuasiStaticWorld:
     client = None
 
     def __init__(self, shape: Shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
-        self.shape, self.physics, self.environment = shape, physics, environment
+        super().__init__(shape)
+        self.physics, self.environment = physics, environment
         self.axis = chain_axis(shape)
         self.tick = physics.timestep
         """s, one solve: pressures and positions are updated every tick."""
@@ -75,20 +71,8 @@ class QuasiStaticWorld:
         """m, each body's position at rest (empty bellows)."""
         self.s = np.zeros(len(shape.bodies))
         """m, each body's displacement along the axis from its rest position."""
-        self._links = [(link.front, link.rear) for link in shape.links]
-        self._unit_index = {body: k for k, body in enumerate(shape.units)}
-        self.link_units = np.array([-1 if link.unit is None else self._unit_index[link.unit] for link in shape.links],
-                                   dtype=int)
-        self._actuated = self.link_units >= 0
-        self._strokes = np.array([shape.actuator.stroke if link.stroke is None else link.stroke for link in shape.links])
-        self._pitch = np.array([np.linalg.norm(self._rest[f] - self._rest[r]) for f, r in self._links])
         # +1 where a link's front lies along +axis from its rear: its length is pitch + sign * (s_front - s_rear).
         self._sign = np.array([np.sign(np.dot(self._rest[f] - self._rest[r], self.axis)) for f, r in self._links])
-        self.intact = np.ones(len(shape.links), dtype=bool)
-        self.pressure = np.zeros(len(shape.links))
-        self.phases = np.zeros(shape.n_units)
-        self.damage = ["" for _ in shape.units]
-        self._stuck_length = np.full(len(shape.links), np.nan)
         self._friction_scale = environment.friction_scale
         self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
         self._weight = np.array([body.mass * GRAVITY for body in shape.bodies])
@@ -128,29 +112,16 @@ class QuasiStaticWorld:
         self._pair_link = np.array(pair_link, dtype=np.int64)
         self._pair_sign = np.array(pair_sign, dtype=float)
 
-    def set_phases(self, phases) -> None:
-        phases = np.asarray(phases, dtype=float)
-        if phases.shape != self.phases.shape:
-            raise ValueError(f"expected {self.phases.shape[0]} phases, got {phases.shape}")
-        self.phases = np.mod(phases, 1.0)
-
-    def ticks_in(self, duration: float) -> int:
-        return max(0, round(duration / self.tick))
-
     def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
         """Run ``n_ticks`` ticks; ``on_tick(k)`` after tick k when k + 1 is a multiple of ``every`` (as World)."""
         if n_ticks <= 0:
             return
         start, actuator = self.time, self.shape.actuator
-        trajectory = pressure_trajectory(
-            self.pressure, self.phases[np.maximum(self.link_units, 0)], start, self.tick, n_ticks, actuator
-        ) * (self._actuated if pumps else 0.0)
-        extension = self._rest_lengths(trajectory) - self._pitch  # (n_ticks, n_links)
+        trajectory = self._pressures(start, n_ticks, pumps)
+        extension = self._rest_lengths(trajectory) - self._empty_pitch  # (n_ticks, n_links)
         friction = np.broadcast_to(self._base_friction * self._friction_scale, (n_ticks, len(self.s))).copy()
         if pumps and self.environment.vibration != 1.0:
-            t = start + self.tick * np.arange(n_ticks)
-            pumping = np.mod(t[:, None] / actuator.cycle_time - self.phases, 1.0) < actuator.alpha
-            pumping &= np.array([d != "dead" for d in self.damage])
+            pumping = self._pumping(start, n_ticks)
             friction[:, self._unit_bodies] *= np.where(pumping, self.environment.vibration, 1.0)
         limits = friction * self._weight
         # Segments end where a callback is due or the friction field is read again at the bodies' new places.
@@ -179,52 +150,18 @@ class QuasiStaticWorld:
                      self._order, self._starts, self._pair_link, self._pair_sign, 1.0 / self.shape.actuator.stiffness,
                      self.shape.actuator.max_force)
 
-    def _rest_lengths(self, trajectory: np.ndarray) -> np.ndarray:
-        """(n_ticks, n_links) rest length of each bellows: a damaged one cannot inflate, a stuck one keeps its length."""
-        extends = np.array([u >= 0 and self.damage[u] not in ("no-inflate", "dead") for u in self.link_units],
-                           dtype=float)
-        rest = self._pitch + self._strokes * trajectory * extends
-        stuck = ~np.isnan(self._stuck_length)
-        rest[:, stuck] = self._stuck_length[stuck]
-        return rest
-
     def set_friction_scale(self, scale: float) -> None:
         self._friction_scale = scale
-
-    def set_damage(self, unit: int, mode: str) -> None:
-        if mode not in ("",) + DAMAGE_MODES:
-            raise ValueError(f"damage mode must be '' (healthy) or one of {DAMAGE_MODES}, got {mode!r}")
-        if self.damage[unit] == mode:
-            return
-        self.damage[unit] = mode
-        driven = self.link_units == unit
-        self._stuck_length[driven] = (self._pitch + self._strokes * self.pressure)[driven] \
-            if mode == "stuck" else np.nan
 
     def cut(self, link: int) -> None:
         if self.intact[link]:
             self.intact[link] = False
             self._build_paths()
 
-    def pieces(self) -> list[list[int]]:
-        return connected_groups(len(self.s), [link for link, intact in zip(self._links, self.intact) if intact])
-
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
         index = np.arange(len(self.s)) if which is None else np.asarray(which, dtype=int)
         positions = self._rest[index] + self.s[index, None] * self.axis
         return positions, np.tile(_IDENTITY, (len(index), 1))
-
-    def unit_poses(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.poses(self.shape.units)
-
-    def close(self) -> None:
-        pass
-
-    def __enter__(self) -> QuasiStaticWorld:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
 
 @numba.njit(cache=True)
@@ -259,7 +196,7 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inve
                     # The incoming message's derivative at 0, then a jump of 2 w there.
                     k = 0
                     cnt = counts[i - 1]
-                    px, pu = xs[i - 1], us[i - 1]
+                    pu = us[i - 1]
                     ps = ss[i - 1]
                     # incoming graph: points (pu, ps) (already transformed), horizontal rays at both ends
                     j = 0

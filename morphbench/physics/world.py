@@ -18,24 +18,22 @@ import math
 import numpy as np
 import pybullet as pb
 
-from morphbench.params import DAMAGE_MODES, FAST_PHYSICS, EnvironmentParams, PhysicsParams
+from morphbench.params import FAST_PHYSICS, EnvironmentParams, PhysicsParams
+from morphbench.physics.bellows import FIELD_UPDATE_PERIOD, GRAVITY, Bellows
 from morphbench.physics.friction import FrictionField
 from morphbench.physics.geometry import body_shapes
-from morphbench.physics.pressure import pressure_trajectory
-from morphbench.shapes.checks import connected_groups
 from morphbench.shapes.model import Shape
 
-GRAVITY = 9.81  # m/s^2
 GROUND_FRICTION = 1.0  # Bullet multiplies the two bodies' coefficients, so a body's own value is the real one
-FIELD_UPDATE_PERIOD = 0.1  # s: units move well under a millimetre in this time, the field varies over centimetres
 
 
-class World:
+class World(Bellows):
     """One simulation: build it from a shape, set the units' phases, advance time, read the units' poses."""
 
     def __init__(self, shape: Shape, physics: PhysicsParams = FAST_PHYSICS,
                  environment: EnvironmentParams = EnvironmentParams()):
-        self.shape, self.physics, self.environment = shape, physics, environment
+        super().__init__(shape)
+        self.physics, self.environment = physics, environment
         self.tick = physics.timestep
         """s, one physics step: pressures and bellows forces are updated every tick."""
         self.client = pb.connect(pb.DIRECT)
@@ -49,28 +47,9 @@ class World:
         self.ground = pb.createMultiBody(0, pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=c), physicsClientId=c)
         pb.changeDynamics(self.ground, -1, lateralFriction=GROUND_FRICTION, physicsClientId=c)
         self.bodies = [self._add_body(body) for body in shape.bodies]
-        self._unit_index = {body: k for k, body in enumerate(shape.units)}
-        self.link_units = np.array([-1 if link.unit is None else self._unit_index[link.unit] for link in shape.links],
-                                   dtype=int)
-        """for each link, the index (in unit order) of the unit whose pump drives it; -1 for a passive link."""
-        self._actuated = self.link_units >= 0
-        self._strokes = np.array([shape.actuator.stroke if link.stroke is None else link.stroke for link in shape.links])
-        """m, each bellows' stroke (a unit may override the shape's)."""
         self._alignments = [self._align(link) for link in shape.links]
-        self.intact = np.ones(len(shape.links), dtype=bool)
-        """for each link, False once it has been cut."""
-        self._links = [(link.front, link.rear) for link in shape.links]
-        self._empty_pitch = np.array([self._pitch(link) for link in shape.links])
-        """m, centre-to-centre distance of each link's two bodies when its bellows is empty."""
         self._lengths = self._empty_pitch.tolist()
         """m, each bellows' length at the previous tick (its rate of change damps the spring)."""
-        self.pressure = np.zeros(len(shape.links))
-        """current pressure (0..1) of each bellows."""
-        self.phases = np.zeros(shape.n_units)
-        """current phase (0..1) of each active unit's pump."""
-        self.damage = ["" for _ in shape.units]
-        """per active unit (unit order): '' (healthy) or a mode of DAMAGE_MODES."""
-        self._stuck_length = np.full(len(shape.links), np.nan)
         self._friction_scale = environment.friction_scale
         self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
         self._base_friction = np.array([body.friction for body in shape.bodies])
@@ -111,17 +90,6 @@ class World:
         front, rear = (np.asarray(self.shape.bodies[i].position) for i in (link.front, link.rear))
         return float(np.linalg.norm(front - rear))
 
-    def set_phases(self, phases) -> None:
-        """Set every active unit's phase (unit order, values in [0, 1))."""
-        phases = np.asarray(phases, dtype=float)
-        if phases.shape != self.phases.shape:
-            raise ValueError(f"expected {self.phases.shape[0]} phases, got {phases.shape}")
-        self.phases = np.mod(phases, 1.0)
-
-    def ticks_in(self, duration: float) -> int:
-        """How many control ticks make ``duration`` seconds (durations are whole numbers of ticks)."""
-        return max(0, round(duration / self.tick))
-
     def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
         """Run ``n_ticks`` physics ticks. ``on_tick(k)`` is called after tick k (0-based) if given and k + 1 is a
         multiple of ``every``, with ``time`` and ``pressure`` already those at the end of that tick. With
@@ -130,10 +98,7 @@ class World:
             return
         start = self.time
         actuator = self.shape.actuator
-        # A passive link has no pump: its pressure trajectory is computed (phase 0) and then zeroed.
-        trajectory = pressure_trajectory(
-            self.pressure, self.phases[np.maximum(self.link_units, 0)], start, self.tick, n_ticks, actuator
-        ) * (self._actuated if pumps else 0.0)
+        trajectory = self._pressures(start, n_ticks, pumps)
         rest_lengths = self._rest_lengths(trajectory).tolist()
         friction_ticks, pumping = self._friction_schedule(start, n_ticks) if pumps else (set(), None)
         stiffness, damping, cap, dt = actuator.stiffness, actuator.damping, actuator.max_force, self.tick
@@ -161,25 +126,13 @@ class World:
                 on_tick(k)
         self.pressure, self.time = trajectory[-1], start + n_ticks * dt
 
-    def _rest_lengths(self, trajectory: np.ndarray) -> np.ndarray:
-        """(n_ticks, n_links) rest length of each bellows: a damaged one cannot inflate, a stuck one keeps its length."""
-        extends = np.array([u >= 0 and self.damage[u] not in ("no-inflate", "dead") for u in self.link_units],
-                           dtype=float)
-        rest = self._empty_pitch + self._strokes * trajectory * extends
-        stuck = ~np.isnan(self._stuck_length)
-        rest[:, stuck] = self._stuck_length[stuck]
-        return rest
-
     def _friction_schedule(self, start: float, n_ticks: int) -> tuple[set[int], np.ndarray | None]:
         """Ticks at which friction must be set again (pump switches when vibrating, field updates) and, when the
         pumps vibrate, which pumps run at each tick."""
         ticks: set[int] = set()
         pumping = None
         if self.environment.vibration != 1.0:
-            t = start + self.tick * np.arange(n_ticks)
-            actuator = self.shape.actuator
-            pumping = np.mod(t[:, None] / actuator.cycle_time - self.phases, 1.0) < actuator.alpha
-            pumping &= np.array([d != "dead" for d in self.damage])
+            pumping = self._pumping(start, n_ticks)
             switches = np.flatnonzero(np.any(pumping[1:] != pumping[:-1], axis=1)) + 1
             ticks.update(switches.tolist())
             ticks.add(0)
@@ -204,27 +157,11 @@ class World:
         self._friction_scale = scale
         self._apply_friction(self.poses()[0], None)
 
-    def set_damage(self, unit: int, mode: str) -> None:
-        """Damage the active unit at ``unit`` (unit order, 0-based): 'no-inflate' (its bellows cannot extend; pump and
-        vibration go on), 'stuck' (its bellows keeps its current length), 'dead' (no pump, no vibration); '' heals."""
-        if mode not in ("",) + DAMAGE_MODES:
-            raise ValueError(f"damage mode must be '' (healthy) or one of {DAMAGE_MODES}, got {mode!r}")
-        if self.damage[unit] == mode:
-            return
-        self.damage[unit] = mode
-        driven = self.link_units == unit
-        self._stuck_length[driven] = (self._empty_pitch + self._strokes * self.pressure)[driven] \
-            if mode == "stuck" else np.nan
-
     def cut(self, link: int) -> None:
         """Cut link ``link`` (index into shape.links): its bellows and alignment are gone; the pieces move apart freely."""
         if self.intact[link]:
             pb.removeConstraint(self._alignments[link], physicsClientId=self.client)
             self.intact[link] = False
-
-    def pieces(self) -> list[list[int]]:
-        """Connected groups of body indices over the intact links, the piece holding body 0 first."""
-        return connected_groups(len(self.bodies), [link for link, intact in zip(self._links, self.intact) if intact])
 
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
         """Positions (N, 3, m) and orientations (N, 4 quaternions x, y, z, w) of the given bodies (default all)."""
@@ -232,17 +169,7 @@ class World:
         states = [pb.getBasePositionAndOrientation(uid, physicsClientId=self.client) for uid in ids]
         return np.array([s[0] for s in states]), np.array([s[1] for s in states])
 
-    def unit_poses(self) -> tuple[np.ndarray, np.ndarray]:
-        """Poses of the active units, in unit order."""
-        return self.poses(self.shape.units)
-
     def close(self) -> None:
         if self.client is not None and pb.isConnected(self.client):
             pb.disconnect(self.client)
         self.client = None
-
-    def __enter__(self) -> World:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()

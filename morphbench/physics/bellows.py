@@ -1,0 +1,110 @@
+"""What every world keeps of its bellows and pumps, whatever computes the motion (pure numpy): which unit drives each
+link, strokes, empty lengths, phases, pressures, damage and cuts."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from morphbench.params import DAMAGE_MODES
+from morphbench.physics.pressure import pressure_trajectory
+from morphbench.shapes.checks import connected_groups
+from morphbench.shapes.model import Shape
+
+GRAVITY = 9.81  # m/s^2
+FIELD_UPDATE_PERIOD = 0.1  # s: units move well under a millimetre in this time, the field varies over centimetres
+
+
+class Bellows:
+    """The base of both worlds; a subclass sets ``tick`` (s) and moves the bodies."""
+
+    tick: float
+
+    def __init__(self, shape: Shape):
+        self.shape = shape
+        rest = np.array([body.position for body in shape.bodies], dtype=float)
+        self._links = [(link.front, link.rear) for link in shape.links]
+        unit_index = {body: k for k, body in enumerate(shape.units)}
+        self.link_units = np.array([-1 if link.unit is None else unit_index[link.unit] for link in shape.links],
+                                   dtype=int)
+        """for each link, the index (in unit order) of the unit whose pump drives it; -1 for a passive link."""
+        self._actuated = self.link_units >= 0
+        self._strokes = np.array([shape.actuator.stroke if link.stroke is None else link.stroke for link in shape.links])
+        """m, each bellows' stroke (a unit may override the shape's)."""
+        self._empty_pitch = np.array([np.linalg.norm(rest[f] - rest[r]) for f, r in self._links])
+        """m, centre-to-centre distance of each link's two bodies when its bellows is empty."""
+        self.intact = np.ones(len(shape.links), dtype=bool)
+        """for each link, False once it has been cut."""
+        self.pressure = np.zeros(len(shape.links))
+        """current pressure (0..1) of each bellows."""
+        self.phases = np.zeros(shape.n_units)
+        """current phase (0..1) of each active unit's pump."""
+        self.damage = ["" for _ in shape.units]
+        """per active unit (unit order): '' (healthy) or a mode of DAMAGE_MODES."""
+        self._stuck_length = np.full(len(shape.links), np.nan)
+
+    def set_phases(self, phases) -> None:
+        """Set every active unit's phase (unit order, values in [0, 1))."""
+        phases = np.asarray(phases, dtype=float)
+        if phases.shape != self.phases.shape:
+            raise ValueError(f"expected {self.phases.shape[0]} phases, got {phases.shape}")
+        self.phases = np.mod(phases, 1.0)
+
+    def ticks_in(self, duration: float) -> int:
+        """How many control ticks make ``duration`` seconds (durations are whole numbers of ticks)."""
+        return max(0, round(duration / self.tick))
+
+    def _pressures(self, start: float, n_ticks: int, pumps: bool) -> np.ndarray:
+        """(n_ticks, n_links) pressure of each bellows at the end of each coming tick (0 with ``pumps`` off)."""
+        # A passive link has no pump: its pressure trajectory is computed (phase 0) and then zeroed.
+        trajectory = pressure_trajectory(self.pressure, self.phases[np.maximum(self.link_units, 0)], start, self.tick,
+                                         n_ticks, self.shape.actuator)
+        return trajectory * (self._actuated if pumps else 0.0)
+
+    def _rest_lengths(self, trajectory: np.ndarray) -> np.ndarray:
+        """(n_ticks, n_links) rest length of each bellows: a damaged one cannot inflate, a stuck one keeps its length."""
+        extends = np.array([u >= 0 and self.damage[u] not in ("no-inflate", "dead") for u in self.link_units],
+                           dtype=float)
+        rest = self._empty_pitch + self._strokes * trajectory * extends
+        stuck = ~np.isnan(self._stuck_length)
+        rest[:, stuck] = self._stuck_length[stuck]
+        return rest
+
+    def _pumping(self, start: float, n_ticks: int) -> np.ndarray:
+        """(n_ticks, n_units) whether each unit's pump runs at the start of each coming tick (a dead one never)."""
+        t = start + self.tick * np.arange(n_ticks)
+        actuator = self.shape.actuator
+        pumping = np.mod(t[:, None] / actuator.cycle_time - self.phases, 1.0) < actuator.alpha
+        return pumping & np.array([d != "dead" for d in self.damage])
+
+    def set_damage(self, unit: int, mode: str) -> None:
+        """Damage the active unit at ``unit`` (unit order, 0-based): 'no-inflate' (its bellows cannot extend; pump and
+        vibration go on), 'stuck' (its bellows keeps its current length), 'dead' (no pump, no vibration); '' heals."""
+        if mode not in ("",) + DAMAGE_MODES:
+            raise ValueError(f"damage mode must be '' (healthy) or one of {DAMAGE_MODES}, got {mode!r}")
+        if self.damage[unit] == mode:
+            return
+        self.damage[unit] = mode
+        driven = self.link_units == unit
+        self._stuck_length[driven] = (self._empty_pitch + self._strokes * self.pressure)[driven] \
+            if mode == "stuck" else np.nan
+
+    def pieces(self) -> list[list[int]]:
+        """Connected groups of body indices over the intact links, the piece holding body 0 first."""
+        return connected_groups(len(self.shape.bodies),
+                                [link for link, intact in zip(self._links, self.intact) if intact])
+
+    def unit_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """Poses of the active units, in unit order."""
+        return self.poses(self.shape.units)
+
+    def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release what the world holds (a subclass with a simulator client disconnects it)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
