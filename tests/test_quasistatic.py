@@ -1,5 +1,7 @@
 """The quasi-static world against cases solvable by hand and against independent solutions of the same physics."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -101,19 +103,17 @@ def test_compliant_chain_matches_an_independent_minimiser(seed):
     extension = rng.uniform(0, 0.004, units)
     world.s = rng.normal(0, 0.001, units + 1)
     s0 = world.s.copy()
-    pitch = world._empty_pitch
     # Body i's coordinate minus body i+1's should be the extension (front bodies first, links front to rear).
     world.relax(extension, w)
     reference = coordinate_descent(s0, extension, k, w)
     assert world.s == pytest.approx(reference, abs=1e-9)
-    assert pitch.shape == (units,)
 
 
 def test_the_two_unit_curve_converges_as_the_tick_shrinks():
     """The solution depends on time only through the pressures: halving the tick changes the curve very little."""
     shape = chain(2)
-    coarse, fine = ([velocity_at(shape, [0.0, d], physics=QUASISTATIC_PHYSICS.__class__(
-        backend="quasistatic", timestep=dt), cycles=4).mean() for d in np.arange(20) / 20] for dt in (1 / 200, 1 / 400))
+    coarse, fine = ([velocity_at(shape, [0.0, d], physics=dataclasses.replace(QUASISTATIC_PHYSICS, timestep=dt),
+                                 cycles=4).mean() for d in np.arange(20) / 20] for dt in (1 / 200, 1 / 400))
     assert np.sqrt(np.mean((np.array(coarse) - np.array(fine)) ** 2)) < 0.05
 
 

@@ -156,10 +156,7 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
         events.setdefault(event.step, []).append(event)
     started = time.perf_counter()
     cycle, to_mm_per_cycle = shape.actuator.cycle_time, 1000.0 / lp.cycles_per_step
-    physics = config.physics
-    if physics.backend == "auto" and config.sensor.kind == "camera":  # the camera renders a PyBullet scene
-        physics = dataclasses.replace(physics, backend="pybullet")
-    with make_world(shape, physics, config.environment) as world:
+    with make_world(shape, config.physics, config.environment, scene=config.sensor.kind == "camera") as world:
         sensor = make_sensor(config.sensor, n, config.environment, config.seed, world)
         # The ground truth is sampled on the sensor's ticks, so poses are read once; an ideal sensor is its own truth.
         truth = None if isinstance(sensor, IdealSensor) else IdealSensor(n, sample_period=sensor.sample_period)

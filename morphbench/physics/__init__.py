@@ -11,15 +11,17 @@ from morphbench.physics.quasistatic import QuasiStaticWorld, chain_axis
 from morphbench.physics.world import World
 
 
-def make_world(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
+def make_world(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams(),
+               scene: bool = False):
     """A world of ``shape`` on the backend ``physics.backend``: a PyBullet ``World`` or a ``QuasiStaticWorld``
-    ('auto': the quasi-static one for a chain)."""
+    ('auto': the quasi-static one for a chain, unless ``scene`` asks for a PyBullet scene to render, as the camera
+    sensor does)."""
     if physics.backend == "auto":
         try:
             chain_axis(shape)
         except ConfigError:
             return World(shape, physics, environment)
-        return QuasiStaticWorld(shape, physics, environment)
+        return World(shape, physics, environment) if scene else QuasiStaticWorld(shape, physics, environment)
     if physics.backend == "pybullet":
         return World(shape, physics, environment)
     if physics.backend == "quasistatic":

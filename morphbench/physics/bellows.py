@@ -1,11 +1,12 @@
 """What every world keeps of its bellows and pumps, whatever computes the motion (pure numpy): which unit drives each
-link, strokes, empty lengths, phases, pressures, damage and cuts."""
+link, strokes, empty lengths, phases, pressures, damage and cuts, and the friction each body starts from."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from morphbench.params import DAMAGE_MODES
+from morphbench.params import DAMAGE_MODES, EnvironmentParams
+from morphbench.physics.friction import FrictionField
 from morphbench.physics.pressure import pressure_trajectory
 from morphbench.shapes.checks import connected_groups
 from morphbench.shapes.model import Shape
@@ -19,9 +20,10 @@ class Bellows:
 
     tick: float
 
-    def __init__(self, shape: Shape):
-        self.shape = shape
-        rest = np.array([body.position for body in shape.bodies], dtype=float)
+    def __init__(self, shape: Shape, environment: EnvironmentParams):
+        self.shape, self.environment = shape, environment
+        self._rest = rest = np.array([body.position for body in shape.bodies], dtype=float)
+        """m, each body's position at rest (empty bellows)."""
         self._links = [(link.front, link.rear) for link in shape.links]
         unit_index = {body: k for k, body in enumerate(shape.units)}
         self.link_units = np.array([-1 if link.unit is None else unit_index[link.unit] for link in shape.links],
@@ -41,6 +43,10 @@ class Bellows:
         self.damage = ["" for _ in shape.units]
         """per active unit (unit order): '' (healthy) or a mode of DAMAGE_MODES."""
         self._stuck_length = np.full(len(shape.links), np.nan)
+        self._friction_scale = environment.friction_scale
+        self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
+        self._base_friction = np.array([body.friction for body in shape.bodies])
+        self._unit_bodies = np.array(shape.units, dtype=int)
 
     def set_phases(self, phases) -> None:
         """Set every active unit's phase (unit order, values in [0, 1))."""

@@ -24,7 +24,6 @@ import numpy as np
 from morphbench.errors import ConfigError
 from morphbench.params import EnvironmentParams, PhysicsParams
 from morphbench.physics.bellows import FIELD_UPDATE_PERIOD, GRAVITY, Bellows
-from morphbench.physics.friction import FrictionField
 from morphbench.shapes.model import Shape
 
 _IDENTITY = (0.0, 0.0, 0.0, 1.0)
@@ -62,22 +61,16 @@ class QuasiStaticWorld(Bellows):
     client = None
 
     def __init__(self, shape: Shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
-        super().__init__(shape)
-        self.physics, self.environment = physics, environment
+        super().__init__(shape, environment)
+        self.physics = physics
         self.axis = chain_axis(shape)
         self.tick = physics.timestep
         """s, one solve: pressures and positions are updated every tick."""
-        self._rest = np.array([body.position for body in shape.bodies], dtype=float)
-        """m, each body's position at rest (empty bellows)."""
         self.s = np.zeros(len(shape.bodies))
         """m, each body's displacement along the axis from its rest position."""
         # +1 where a link's front lies along +axis from its rear: its length is pitch + sign * (s_front - s_rear).
         self._sign = np.array([np.sign(np.dot(self._rest[f] - self._rest[r], self.axis)) for f, r in self._links])
-        self._friction_scale = environment.friction_scale
-        self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
         self._weight = np.array([body.mass * GRAVITY for body in shape.bodies])
-        self._base_friction = np.array([body.friction for body in shape.bodies])
-        self._unit_bodies = np.array(shape.units, dtype=int)
         self._build_paths()
         self.time = 0.0
         """s, the pumps' clock (nothing needs settling: bodies start at rest on the ground)."""
@@ -185,7 +178,6 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inve
             a, b = starts[p], starts[p + 1]
             m = b - a
             # Forward: F_0 = w_0 |x|; F_{i+1}(y) = min_x F_i(x) + H(x - y - c_i) + w_{i+1} |y|.
-            cnt = 0
             for i in range(m):
                 body = order[a + i]
                 w = limits[t, body]

@@ -20,7 +20,6 @@ import pybullet as pb
 
 from morphbench.params import FAST_PHYSICS, EnvironmentParams, PhysicsParams
 from morphbench.physics.bellows import FIELD_UPDATE_PERIOD, GRAVITY, Bellows
-from morphbench.physics.friction import FrictionField
 from morphbench.physics.geometry import body_shapes
 from morphbench.shapes.model import Shape
 
@@ -32,8 +31,8 @@ class World(Bellows):
 
     def __init__(self, shape: Shape, physics: PhysicsParams = FAST_PHYSICS,
                  environment: EnvironmentParams = EnvironmentParams()):
-        super().__init__(shape)
-        self.physics, self.environment = physics, environment
+        super().__init__(shape, environment)
+        self.physics = physics
         self.tick = physics.timestep
         """s, one physics step: pressures and bellows forces are updated every tick."""
         self.client = pb.connect(pb.DIRECT)
@@ -47,13 +46,9 @@ class World(Bellows):
         self.ground = pb.createMultiBody(0, pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=c), physicsClientId=c)
         pb.changeDynamics(self.ground, -1, lateralFriction=GROUND_FRICTION, physicsClientId=c)
         self.bodies = [self._add_body(body) for body in shape.bodies]
-        self._alignments = [self._align(link) for link in shape.links]
+        self._alignments = [self._align(i) for i in range(len(shape.links))]
         self._lengths = self._empty_pitch.tolist()
         """m, each bellows' length at the previous tick (its rate of change damps the spring)."""
-        self._friction_scale = environment.friction_scale
-        self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
-        self._base_friction = np.array([body.friction for body in shape.bodies])
-        self._unit_bodies = np.array(shape.units, dtype=int)
         self._applied_friction = self._base_friction.copy()
         self._apply_friction(self.poses()[0], np.zeros(shape.n_units, dtype=bool))
         # Settle with the bellows' springs holding their rest lengths (a stacked layer rests on them, not on the
@@ -71,24 +66,18 @@ class World(Bellows):
                           physicsClientId=c)
         return uid
 
-    def _align(self, link) -> int:
+    def _align(self, i: int) -> int:
         """A prismatic constraint along the link's axis: bodies keep their relative orientation and sideways offset.
 
         In a closed loop of links this also makes parallel links of a ladder share their extension (the rows of a
         grid are locked together along the rows), a stiff lateral coupling documented in docs/morphologies.md.
         """
-        front, rear = (np.asarray(self.shape.bodies[i].position) for i in (link.front, link.rear))
-        pitch = self._pitch(link)
-        axis = (front - rear) / pitch
+        (front, rear), pitch = self._links[i], self._empty_pitch[i]
+        axis = (self._rest[front] - self._rest[rear]) / pitch
         return pb.createConstraint(
-            self.bodies[link.front], -1, self.bodies[link.rear], -1, pb.JOINT_PRISMATIC, axis.tolist(),
+            self.bodies[front], -1, self.bodies[rear], -1, pb.JOINT_PRISMATIC, axis.tolist(),
             (-axis * pitch / 2).tolist(), (axis * pitch / 2).tolist(), physicsClientId=self.client,
         )
-
-    def _pitch(self, link) -> float:
-        """m, centre-to-centre distance of the link's bodies at rest (empty bellows)."""
-        front, rear = (np.asarray(self.shape.bodies[i].position) for i in (link.front, link.rear))
-        return float(np.linalg.norm(front - rear))
 
     def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
         """Run ``n_ticks`` physics ticks. ``on_tick(k)`` is called after tick k (0-based) if given and k + 1 is a
