@@ -102,8 +102,9 @@ def _parser() -> argparse.ArgumentParser:
 
 def _add_physics(parser: argparse.ArgumentParser, default: str | None) -> None:
     parser.add_argument("--physics", choices=sorted(PHYSICS_PRESETS), default=default,
-                        help="physics: default (quasistatic for a chain, fast for other shapes), fast (PyBullet), reference "
-                             "(PyBullet, finer) or quasistatic (springs and friction without inertia, exact; chains only)")
+                        help="physics: default (quasistatic on the ground, fast for stacks), fast (PyBullet), reference "
+                             "(PyBullet, finer) or quasistatic (springs and friction without inertia, exact; one layer "
+                             "on the ground)")
 
 
 def _output_dir(out: str, marker: str, overwrite: bool) -> Path:

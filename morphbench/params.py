@@ -66,6 +66,12 @@ class ActuatorParams:
     """N s/m, axial damping of the bellows."""
     max_force: float = 5.0
     """N, the largest force the bellows exerts along its axis."""
+    shear_stiffness: float = 3000.0
+    """N/m, stiffness of a link against its two bodies sliding past each other across its axis (every link, passive
+    ones too; planar quasi-static physics). Ten times the axial stiffness: a bellows is guided across, free along."""
+    bending_stiffness: float = 0.3
+    """N m/rad, stiffness of a link against its two bodies turning relative to each other (planar quasi-static
+    physics): a body's friction torque (about 0.005 N m) bends a link by about 1 degree."""
     tau_inflate: float = 0.3
     """s, pressure time constant while the pump runs."""
     tau_vent: float = 0.3
@@ -82,9 +88,10 @@ class PhysicsParams:
 
     backend: str = "auto"
     """'pybullet': rigid bodies on a ground plane (morphbench.physics.world), any shape; 'quasistatic': springs and
-    Coulomb friction without inertia (morphbench.physics.quasistatic), exact and fast, for chains and their pieces;
-    'auto': quasistatic for a chain, pybullet for any other shape (and for the camera sensor, which renders a PyBullet
-    scene). The quasi-static model is the converged physics of a chain; the PyBullet world is not yet converged
+    Coulomb friction without inertia, exact and fast, for any assembly in one layer on the ground (solved along the
+    axis for a chain, morphbench.physics.quasistatic, and in the plane otherwise, morphbench.physics.planar);
+    'auto': quasistatic where it applies, pybullet for stacks (and for the camera sensor, which renders a PyBullet
+    scene). The quasi-static model is the converged physics; the PyBullet world is not yet converged
     (docs/fidelity.md)."""
     timestep: float = 1 / 120
     """s, physics step (quasistatic: the interval between solves; the solution depends on time only through the
@@ -98,7 +105,7 @@ class PhysicsParams:
 PHYSICS_BACKENDS = ("auto", "pybullet", "quasistatic")
 
 DEFAULT_PHYSICS = PhysicsParams()
-"""The default: the quasi-static model for chains, the PyBullet world at the fast setting for other shapes."""
+"""The default: the quasi-static model for shapes on the ground, the PyBullet world at the fast setting for stacks."""
 
 FAST_PHYSICS = PhysicsParams(backend="pybullet")
 """PyBullet at a step the speed targets allow (docs/fidelity.md measures how far it is from converged)."""

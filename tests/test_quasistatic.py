@@ -173,9 +173,9 @@ def test_pressure_is_the_shared_model():
     assert world.pressure == pytest.approx(expected)
 
 
-def test_grids_are_refused_with_one_clear_error():
-    with pytest.raises(ConfigError, match="chain"):
-        make_world(load_shape("shapes/grid-3x3.toml"), QUASISTATIC_PHYSICS)
+def test_stacks_are_refused_with_one_clear_error():
+    with pytest.raises(ConfigError, match="one layer"):
+        make_world(load_shape("shapes/stack-2x2x2.toml"), QUASISTATIC_PHYSICS)
 
 
 def test_a_run_goes_through_the_run_loop_deterministically():

@@ -1,0 +1,376 @@
+"""The planar quasi-static world: springs and Coulomb friction with no inertia, for assemblies lying on the ground.
+
+The quasi-static model of a chain (``quasistatic.py``) in the plane: each body has a position (x, y) and a heading
+theta, and over each tick its increment u_i = (dx, dy, dtheta) minimises the incremental energy
+
+    E(u) = sum_links [psi(axial) + k_s/2 shear^2 + k_b/2 bend^2] + sum_i w_i sqrt(dx^2 + dy^2 + (rho_i dtheta)^2)
+
+A link measures its two bodies in its own frame, turned by their mean heading: ``axial`` is the centre distance
+along the link's rest axis less its pressure-driven rest length (``psi`` is k/2 z^2 with the force capped at
+``max_force``, as in a chain), ``shear`` the sideways offset, ``bend`` the difference of headings. w_i is the body's
+friction limit and rho_i its friction radius (the mean distance of its footprint from its centre, so that a body
+turning on the spot meets the friction torque of a uniformly loaded footprint; the combined sliding-and-turning limit
+is the ellipsoidal approximation of the limit surface, which keeps the energy convex).
+
+Each tick the links' strains are linearised about the current poses (computed exactly, so errors do not add up over
+ticks) and the convex problem is solved to a force tolerance by an active-set Newton method: the bodies that slide
+satisfy force balance with friction opposing their motion, the others satisfy the stick condition
+|spring force| <= w_i (the torque scaled by rho_i). Dense linear algebra: cost grows as the cube of the number of
+bodies, fine for tens of bodies.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from morphbench.errors import ConfigError
+from morphbench.params import EnvironmentParams, PhysicsParams
+from morphbench.physics.bellows import FIELD_UPDATE_PERIOD, GRAVITY, Bellows
+from morphbench.shapes.model import Shape
+
+_FLAT_TOLERANCE = 1e-9  # m: bodies whose centres differ in height by more than this are not on one layer
+FORCE_TOLERANCE = 1e-10
+"""N, largest force imbalance (and stick-condition violation) a solve leaves."""
+
+
+def planar_links(shape: Shape) -> np.ndarray:
+    """(n_links, 2) unit vectors of each link's rest axis in the ground plane, from rear to front; a ConfigError if the
+    assembly does not lie on the ground in one layer (a stack) or a link is not horizontal."""
+    positions = np.array([body.position for body in shape.bodies], dtype=float)
+    if np.ptp(positions[:, 2]) > _FLAT_TOLERANCE:
+        raise ConfigError(shape.source, "assembly", "one layer of bodies on the ground for the planar quasi-static "
+                          "physics; use --physics fast or reference for stacks")
+    axes = np.zeros((len(shape.links), 2))
+    for i, link in enumerate(shape.links):
+        d = positions[link.front] - positions[link.rear]
+        axes[i] = d[:2] / np.linalg.norm(d[:2])
+    return axes
+
+
+def friction_radius(length: float, width: float, samples: int = 64) -> float:
+    """m, the mean distance of a uniformly loaded length x width footprint from its centre (midpoint rule)."""
+    x = (np.arange(samples) + 0.5) / samples - 0.5
+    xx, yy = np.meshgrid(x * length, x * width)
+    return float(np.mean(np.hypot(xx, yy)))
+
+
+class PlanarWorld(Bellows):
+    """The same interface as the other worlds: set phases, advance ticks, read poses; damage, cuts, friction.
+
+    Bodies slide and turn on the ground at their shape's height. ``client`` is None: there is no PyBullet scene.
+    """
+
+    client = None
+
+    def __init__(self, shape: Shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
+        super().__init__(shape, environment)
+        self.physics = physics
+        self.tick = physics.timestep
+        """s, one solve: pressures and poses are updated every tick."""
+        self._axes = planar_links(shape)
+        self.q = np.zeros((len(shape.bodies), 3))
+        """each body's (x, y) in m and heading in rad: positions start at rest, headings at 0."""
+        self.q[:, :2] = self._rest[:, :2]
+        self._last = np.zeros_like(self.q)
+        """the previous tick's increments: where the next solve starts from."""
+        self._weight = np.array([body.mass * GRAVITY for body in shape.bodies])
+        self._rho = np.array([friction_radius(body.size[0], body.size[1]) for body in shape.bodies])
+        actuator = shape.actuator
+        self._stiffness = np.array([actuator.stiffness, actuator.shear_stiffness, actuator.bending_stiffness])
+        self.newton_steps = 0
+        """Newton steps taken so far (a measure of the solver's work)."""
+        self.unconverged_ticks = 0
+        """ticks whose solve stopped before meeting FORCE_TOLERANCE (expected 0)."""
+        self._front = np.array([f for f, _ in self._links], dtype=np.int64)
+        self._rear = np.array([r for _, r in self._links], dtype=np.int64)
+        self.time = 0.0
+        """s, the pumps' clock (nothing needs settling: bodies start at rest on the ground)."""
+
+    def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
+        """Run ``n_ticks`` ticks; ``on_tick(k)`` after tick k when k + 1 is a multiple of ``every`` (as World)."""
+        if n_ticks <= 0:
+            return
+        start = self.time
+        trajectory = self._pressures(start, n_ticks, pumps)
+        lengths = self._rest_lengths(trajectory)  # (n_ticks, n_links)
+        friction = np.broadcast_to(self._base_friction * self._friction_scale, (n_ticks, len(self.q))).copy()
+        if pumps and self.environment.vibration != 1.0:
+            pumping = self._pumping(start, n_ticks)
+            friction[:, self._unit_bodies] *= np.where(pumping, self.environment.vibration, 1.0)
+        limits = friction * self._weight
+        breaks = set(range(every, n_ticks + 1, every)) if on_tick is not None else set()
+        field_ticks = set(range(0, n_ticks, max(1, round(FIELD_UPDATE_PERIOD / self.tick)))) if self._field else set()
+        breaks |= field_ticks
+        breaks.add(n_ticks)
+        begin, factor = 0, 1.0
+        for end in sorted(b for b in breaks if b > 0):
+            if begin in field_ticks:
+                factor = self._field.friction(1.0, self.q[:, 0], self.q[:, 1])
+            self.relax_ticks(lengths[begin:end], limits[begin:end] * factor)
+            if on_tick is not None and end % every == 0:
+                self.pressure, self.time = trajectory[end - 1], start + end * self.tick
+                on_tick(end - 1)
+            begin = end
+        self.pressure, self.time = trajectory[-1], start + n_ticks * self.tick
+
+    def relax_ticks(self, lengths, limits) -> None:
+        """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``
+        (n_ticks, n_bodies) each body's friction limit (N)."""
+        total, failed = _solve_ticks(self.q, self._last, np.asarray(lengths, dtype=float), np.asarray(limits, dtype=float),
+                     self._front, self._rear, self._axes, self.intact, self._stiffness,
+                     self.shape.actuator.max_force, self._rho)
+        self.newton_steps += total
+        self.unconverged_ticks += failed
+
+    def set_friction_scale(self, scale: float) -> None:
+        self._friction_scale = scale
+
+    def cut(self, link: int) -> None:
+        self.intact[link] = False
+
+    def headings(self) -> np.ndarray:
+        """rad, each body's heading (turn about z from its rest orientation), unwrapped."""
+        return self.q[:, 2].copy()
+
+    def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
+        index = np.arange(len(self.q)) if which is None else np.asarray(which, dtype=int)
+        positions = np.column_stack([self.q[index, :2], self._rest[index, 2]])
+        half = self.q[index, 2] / 2
+        zeros = np.zeros(len(index))
+        return positions, np.column_stack([zeros, zeros, np.sin(half), np.cos(half)])
+
+
+@numba.njit(cache=True)
+def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, hess):
+    """The links' elastic energy at increments ``u`` (linearised strains about ``q``), adding its gradient and its
+    (generalised) Hessian into ``grad`` and ``hess``."""
+    energy = 0.0
+    jac = np.empty((3, 6))
+    strain = np.empty(3)
+    index = np.empty(6, dtype=np.int64)
+    for link in range(len(front)):
+        if not intact[link]:
+            continue
+        f, r = front[link], rear[link]
+        dx, dy = q[f, 0] - q[r, 0], q[f, 1] - q[r, 1]
+        mean = 0.5 * (q[f, 2] + q[r, 2])
+        c, s = np.cos(mean), np.sin(mean)
+        ax, ay = c * axes[link, 0] - s * axes[link, 1], s * axes[link, 0] + c * axes[link, 1]
+        bx, by = -ay, ax
+        along, across = dx * ax + dy * ay, dx * bx + dy * by
+        strain[0], strain[1], strain[2] = along - lengths[link], across, q[f, 2] - q[r, 2]
+        # d(strain)/d(x_f, y_f, theta_f, x_r, y_r, theta_r): turning the frame turns the axes
+        jac[0, 0], jac[0, 1], jac[0, 2], jac[0, 3], jac[0, 4], jac[0, 5] = ax, ay, 0.5 * across, -ax, -ay, 0.5 * across
+        jac[1, 0], jac[1, 1], jac[1, 2], jac[1, 3], jac[1, 4], jac[1, 5] = bx, by, -0.5 * along, -bx, -by, -0.5 * along
+        jac[2, 0], jac[2, 1], jac[2, 2], jac[2, 3], jac[2, 4], jac[2, 5] = 0.0, 0.0, 1.0, 0.0, 0.0, -1.0
+        for j in range(3):
+            index[j], index[3 + j] = 3 * f + j, 3 * r + j
+        for m in range(3):
+            z = strain[m]
+            for j in range(6):
+                z += jac[m, j] * u[index[j]]
+            k = stiffness[m]
+            if m == 0 and abs(k * z) > cap:  # the bellows gives way at its force cap: linear energy, no stiffness
+                force = cap if z > 0 else -cap
+                energy += cap * abs(z) - 0.5 * cap * cap / k
+                curvature = 0.0
+            else:
+                force = k * z
+                energy += 0.5 * k * z * z
+                curvature = k
+            for j in range(6):
+                grad[index[j]] += force * jac[m, j]
+                if curvature != 0.0:
+                    for i in range(6):
+                        hess[index[i], index[j]] += curvature * jac[m, i] * jac[m, j]
+    return energy
+
+
+@numba.njit(cache=True)
+def _solve_spd(K, b):
+    """x with K x = b for a symmetric positive definite K (Cholesky; K is overwritten)."""
+    m = len(b)
+    for j in range(m):
+        d = K[j, j]
+        for p in range(j):
+            d -= K[j, p] * K[j, p]
+        d = np.sqrt(d)
+        K[j, j] = d
+        for i in range(j + 1, m):
+            v = K[i, j]
+            for p in range(j):
+                v -= K[i, p] * K[j, p]
+            K[i, j] = v / d
+    x = b.copy()
+    for i in range(m):
+        for p in range(i):
+            x[i] -= K[i, p] * x[p]
+        x[i] /= K[i, i]
+    for i in range(m - 1, -1, -1):
+        for p in range(i + 1, m):
+            x[i] -= K[p, i] * x[p]
+        x[i] /= K[i, i]
+    return x
+
+
+@numba.njit(cache=True)
+def _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma, grad, hess, v, prox):
+    """The proximal-gradient residual z - prox(z - gamma grad) in the scaled increments z = (dx, dy, rho dtheta);
+    fills ``v`` (the gradient step), ``prox`` and the smooth part's gradient and Hessian (in z). Returns its largest
+    entry over gamma: the largest force imbalance (N)."""
+    n = len(limits)
+    u = z / scale
+    grad[:] = 0.0
+    hess[:, :] = 0.0
+    _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, hess)
+    for a in range(3 * n):
+        grad[a] /= scale[a]
+        for b in range(3 * n):
+            hess[a, b] /= scale[a] * scale[b]
+    worst = 0.0
+    for i in range(n):
+        norm = 0.0
+        for j in range(3):
+            v[3 * i + j] = z[3 * i + j] - gamma * grad[3 * i + j]
+            norm += v[3 * i + j] ** 2
+        norm = np.sqrt(norm)
+        shrink = max(0.0, 1.0 - gamma * limits[i] / norm) if norm > 0.0 else 0.0
+        for j in range(3):
+            prox[3 * i + j] = shrink * v[3 * i + j]
+            worst = max(worst, abs(z[3 * i + j] - prox[3 * i + j]) / gamma)
+    return worst
+
+
+@numba.njit(cache=True)
+def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap, rho):
+    """Increments ``u`` (3 n, updated in place from its initial guess) minimising the tick's incremental energy;
+    returns the number of Newton steps, -1 if FORCE_TOLERANCE was not met.
+
+    Semismooth Newton on the fixed point z = prox(z - gamma grad f(z)) of the proximal gradient method (the prox
+    of the friction term shrinks each body's scaled increment towards 0 by gamma w_i): where the gradient step leaves
+    a body inside its friction ball it sticks (z_i = 0), elsewhere the Newton system couples the sliding bodies
+    through the springs and a tangential friction stiffness w_i / (|v_i| - gamma w_i). A step that does not reduce
+    the residual falls back to the proximal gradient step itself, which always reduces the energy."""
+    n = len(limits)
+    scale = np.empty(3 * n)  # the friction metric: (1, 1, rho) per body
+    for i in range(n):
+        scale[3 * i], scale[3 * i + 1], scale[3 * i + 2] = 1.0, 1.0, rho[i]
+    z = u * scale
+    grad = np.zeros(3 * n)
+    hess = np.zeros((3 * n, 3 * n))
+    v = np.zeros(3 * n)
+    prox = np.zeros(3 * n)
+    t_grad = np.zeros(3 * n)
+    t_hess = np.zeros((3 * n, 3 * n))
+    t_v = np.zeros(3 * n)
+    t_prox = np.zeros(3 * n)
+    # gamma below 1 / (largest eigenvalue of the Hessian): the uncapped Hessian's largest row sum (Gershgorin).
+    _link_terms(q, np.zeros(3 * n), front, rear, axes, intact, np.array([stiffness[0], stiffness[1], stiffness[2]]),
+                np.inf, lengths, grad, hess)
+    top = 0.0
+    for a in range(3 * n):
+        row = 0.0
+        for b in range(3 * n):
+            row += abs(hess[a, b]) / (scale[a] * scale[b])
+        top = max(top, row)
+    gamma = 1.0 / max(top, 1e-12)
+    floor = 1e-9 * top  # keeps the Newton system definite where a sliding group's motion is undetermined to first order
+    worst = _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma, grad, hess, v,
+                      prox)
+    dz = np.empty(3 * n)
+    for iterations in range(200):
+        if worst <= FORCE_TOLERANCE:
+            u[:] = z / scale
+            return iterations
+        # Sticking bodies go to rest; the sliding ones solve the reduced Newton system.
+        active = np.zeros(n, dtype=np.bool_)
+        count = 0
+        for i in range(n):
+            if prox[3 * i] != 0.0 or prox[3 * i + 1] != 0.0 or prox[3 * i + 2] != 0.0:
+                active[i] = True
+                count += 1
+            for j in range(3):
+                dz[3 * i + j] = -z[3 * i + j] if not active[i] else 0.0
+        if count > 0:
+            m = 3 * count
+            dofs = np.empty(m, dtype=np.int64)
+            c = 0
+            for i in range(n):
+                if active[i]:
+                    for j in range(3):
+                        dofs[c] = 3 * i + j
+                        c += 1
+            M = np.empty((m, m))
+            rhs = np.empty(m)
+            for a in range(m):
+                for b in range(m):
+                    M[a, b] = hess[dofs[a], dofs[b]]
+                M[a, a] += floor
+                acc = 0.0
+                for b in range(3 * n):
+                    acc += hess[dofs[a], b] * dz[b]  # the sticking bodies' return to rest
+                rhs[a] = -acc
+            for c in range(count):
+                i = dofs[3 * c] // 3
+                norm = np.sqrt(v[3 * i] ** 2 + v[3 * i + 1] ** 2 + v[3 * i + 2] ** 2)
+                t = gamma * limits[i] / norm
+                tangential = limits[i] / (norm - gamma * limits[i])
+                nrm = np.empty(3)
+                r = np.empty(3)
+                for j in range(3):
+                    nrm[j] = v[3 * i + j] / norm
+                    r[j] = z[3 * i + j] - prox[3 * i + j]
+                radial = nrm[0] * r[0] + nrm[1] * r[1] + nrm[2] * r[2]
+                for j in range(3):
+                    # D^-1 r / gamma, with D^-1 = (I - n n^T) / (1 - t) + n n^T
+                    rhs[3 * c + j] -= ((r[j] - radial * nrm[j]) / (1.0 - t) + radial * nrm[j]) / gamma
+                    for l in range(3):
+                        h = -nrm[j] * nrm[l]
+                        if j == l:
+                            h += 1.0
+                        M[3 * c + j, 3 * c + l] += tangential * h
+            step = _solve_spd(M, rhs)
+            for a in range(m):
+                dz[dofs[a]] = step[a]
+        length = 1.0
+        for _ in range(12):
+            trial = z + length * dz
+            t_worst = _residual(q, trial, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma,
+                                t_grad, t_hess, t_v, t_prox)
+            if t_worst < worst:
+                break
+            length *= 0.5
+        if not t_worst < worst:
+            trial = prox.copy()  # the proximal gradient step
+            t_worst = _residual(q, trial, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma,
+                                t_grad, t_hess, t_v, t_prox)
+        z = trial
+        worst = t_worst
+        grad[:], v[:], prox[:] = t_grad, t_v, t_prox
+        hess[:, :] = t_hess
+    u[:] = z / scale
+    return -1
+
+
+@numba.njit(cache=True)
+def _solve_ticks(q, last, lengths, limits, front, rear, axes, intact, stiffness, cap, rho):
+    """Advance the poses ``q`` (n, 3, in place) through the ticks of ``lengths`` / ``limits``; ``last`` holds the
+    previous increments, each tick's first guess."""
+    n = q.shape[0]
+    u = np.empty(3 * n)
+    total, failed = 0, 0
+    for t in range(lengths.shape[0]):
+        for i in range(n):
+            for j in range(3):
+                u[3 * i + j] = last[i, j]
+        iterations = _solve_tick(q, u, lengths[t], limits[t], front, rear, axes, intact, stiffness, cap, rho)
+        if iterations < 0:
+            failed += 1
+        else:
+            total += iterations
+        for i in range(n):
+            for j in range(3):
+                last[i, j] = u[3 * i + j]
+                q[i, j] += u[3 * i + j]
+    return total, failed
