@@ -66,12 +66,19 @@ class ActuatorParams:
     """N s/m, axial damping of the bellows."""
     max_force: float = 5.0
     """N, the largest force the bellows exerts along its axis."""
-    shear_stiffness: float = 3000.0
+    shear_stiffness: float = 100.0
     """N/m, stiffness of a link against its two bodies sliding past each other across its axis (every link, passive
-    ones too; planar quasi-static physics). Ten times the axial stiffness: a bellows is guided across, free along."""
-    bending_stiffness: float = 0.3
-    """N m/rad, stiffness of a link against its two bodies turning relative to each other (planar quasi-static
-    physics): a body's friction torque (about 0.005 N m) bends a link by about 1 degree."""
+    ones too). A bellows is soft across as well as along; stiffer links need smaller PyBullet steps (docs/fidelity.md)."""
+    shear_damping: float = 0.3
+    """N s/m, damping of that shear motion (PyBullet only: the quasi-static model has no rates)."""
+    bending_stiffness: float = 0.1
+    """N m/rad, stiffness of a link against its two bodies turning relative to each other across its axis: a body's
+    friction torque (about 0.005 N m) bends a link by about 3 degrees."""
+    twist_stiffness: float = 0.05
+    """N m/rad, stiffness against the two bodies turning relative to each other about the link's axis (PyBullet
+    only: the planar model has no twist)."""
+    rotational_damping: float = 2e-4
+    """N m s/rad, damping of the relative rotation (PyBullet only)."""
     tau_inflate: float = 0.3
     """s, pressure time constant while the pump runs."""
     tau_vent: float = 0.3
@@ -98,6 +105,9 @@ class PhysicsParams:
     pressures)."""
     solver_iterations: int = 10
     """constraint solver iterations per physics step (pybullet only)."""
+    substeps: int = 1
+    """PyBullet steps (and link-force updates) per tick (pybullet only): the links' springs are explicit, so stiffer
+    links than the default, or stacks of three layers or more, need 2 or more."""
     settle_time: float = 0.25
     """s, simulated before the first cycle so the units rest on the ground (pybullet only)."""
 

@@ -120,9 +120,13 @@ def world_rho(body):
     return np.mean(np.hypot(xx, yy))
 
 
+TOLERANCE = 1e-12
+
+
 def test_each_tick_minimises_the_incremental_energy():
     """No small change of the solved increments lowers an independently written energy: not a random perturbation
-    of every body, and not stopping any one body."""
+    of every body, and not stopping any one body. (The solver linearises the strains over a tick, so the exact
+    energy may differ by far less than TOLERANCE, J; a wrong stiffness or friction radius shows up well above it.)"""
     shape = grid(2, 2)
     world = PlanarWorld(shape, QUASISTATIC_PHYSICS)
     world.set_phases([0.0, 0.3, 0.6, 0.1])
@@ -140,12 +144,12 @@ def test_each_tick_minimises_the_incremental_energy():
         for _ in range(20):
             delta = rng.normal(size=(len(shape.bodies), 3)) * 1e-6
             delta[:, 2] /= rho
-            assert energy(shape, before, u + delta.ravel(), lengths, limits) > best
+            assert energy(shape, before, u + delta.ravel(), lengths, limits) > best - TOLERANCE
         for i in range(len(shape.bodies)):
             stopped = u.copy().reshape(-1, 3)
             if np.any(stopped[i]):
                 stopped[i] = 0.0
-                assert energy(shape, before, stopped.ravel(), lengths, limits) > best
+                assert energy(shape, before, stopped.ravel(), lengths, limits) > best - TOLERANCE
                 checked += 1
     assert checked > 20 and world.unconverged_ticks == 0
 

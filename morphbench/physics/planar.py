@@ -13,10 +13,11 @@ turning on the spot meets the friction torque of a uniformly loaded footprint; t
 is the ellipsoidal approximation of the limit surface, which keeps the energy convex).
 
 Each tick the links' strains are linearised about the current poses (computed exactly, so errors do not add up over
-ticks) and the convex problem is solved to a force tolerance by an active-set Newton method: the bodies that slide
+ticks) and the convex problem is solved to a force tolerance by a semismooth Newton method: the bodies that slide
 satisfy force balance with friction opposing their motion, the others satisfy the stick condition
-|spring force| <= w_i (the torque scaled by rho_i). Dense linear algebra: cost grows as the cube of the number of
-bodies, fine for tens of bodies.
+|spring force| <= w_i (the torque scaled by rho_i). The Newton systems are banded (bodies couple only to their
+neighbours, which a lattice lists within a row of each other), so a 100-body sheet costs about a row's width squared
+per body.
 """
 
 from __future__ import annotations
@@ -189,26 +190,34 @@ def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, 
 
 @numba.njit(cache=True)
 def _solve_spd(K, b):
-    """x with K x = b for a symmetric positive definite K (Cholesky; K is overwritten)."""
+    """x with K x = b for a symmetric positive definite K (banded Cholesky: a lattice's bodies in row order couple
+    only within a few rows, so the band is narrow; K is overwritten)."""
     m = len(b)
+    band = 0
+    for i in range(m):
+        for j in range(i):
+            if K[i, j] != 0.0:
+                band = max(band, i - j)
+                break
     for j in range(m):
+        first = max(0, j - band)
         d = K[j, j]
-        for p in range(j):
+        for p in range(first, j):
             d -= K[j, p] * K[j, p]
         d = np.sqrt(d)
         K[j, j] = d
-        for i in range(j + 1, m):
+        for i in range(j + 1, min(m, j + band + 1)):
             v = K[i, j]
-            for p in range(j):
+            for p in range(max(first, i - band), j):
                 v -= K[i, p] * K[j, p]
             K[i, j] = v / d
     x = b.copy()
     for i in range(m):
-        for p in range(i):
+        for p in range(max(0, i - band), i):
             x[i] -= K[i, p] * x[p]
         x[i] /= K[i, i]
     for i in range(m - 1, -1, -1):
-        for p in range(i + 1, m):
+        for p in range(i + 1, min(m, i + band + 1)):
             x[i] -= K[p, i] * x[p]
         x[i] /= K[i, i]
     return x
