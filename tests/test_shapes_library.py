@@ -255,7 +255,7 @@ BAD = [
     ("unknown-generator", '[assembly]\ngenerator = "ring"\n', "assembly.generator",
      "one of chain, grid, lattice, custom"),
     ("grid-with-units", GRID + "units = 4\n", "assembly.units",
-     "one of the known keys columns, dummy, generator, rows"),
+     "one of the known keys actuated_axes, columns, dummy, generator, rows"),
     ("grid-missing-rows", '[assembly]\ngenerator = "grid"\ncolumns = 2\n', "assembly.rows",
      "an integer number of rows"),
     ("grid-zero-columns", GRID.replace("columns = 2", "columns = 0"), "assembly.columns", "units per row in [1, 200]"),

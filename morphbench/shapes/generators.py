@@ -12,16 +12,18 @@ is the body at the larger coordinate along it, its ``rear`` the other.
 - ``grid``: ``rows`` such chains side by side, row 1 at y = 0 and the others towards -y (to the right), each unit's
   bellows pushing against the body behind it in its row; neighbouring rows are joined by passive links along y.
 - ``lattice``: ``layers`` such grids stacked along z (layer 1 on the ground), joined by passive links along z.
+- ``actuated_axes`` (grid and lattice, default ``("x",)``): the lattice axes along which each unit drives the link
+  to the body behind it (x: in its row; y: in the next row; z: the layer below); links along other axes are passive.
 - ``custom``: units at given lattice sites and explicit links (``CustomUnit``, ``CustomLink``).
 
 Unit order (unit 1, 2, ...; the order of learners and of the records) is body order without the dummies. For the
 generators it is layer by layer from the ground up, row by row from row 1 (y = 0) to the right, and front to back
 within a row; a row's dummy follows its last unit. For ``custom`` it is the order of the ``[[units]]`` tables.
 
-Link order (the number a ``cut`` or a run's cut event names, 1-based in files): for the generators, first every
-bellows in the order of the units that drive them (so in a chain with a dummy, link k is unit k's bellows), then the
-passive links along y (layer by layer, row pair by row pair, front to back), then those along z; for ``custom`` the
-order of the ``[[links]]`` tables.
+Link order (the number a ``cut`` or a run's cut event names, 1-based in files): for the generators, first the links
+along x in unit order (so in a chain with a dummy, link k is unit k's bellows), then the links along y (layer by
+layer, row pair by row pair, front to back), then those along z; for ``custom`` the order of the ``[[links]]``
+tables.
 """
 
 from __future__ import annotations
@@ -59,14 +61,16 @@ def _body(site, unit: UnitParams, dummy: DummyParams, actuator: ActuatorParams, 
 
 
 def lattice(layers: int, rows: int, columns: int, has_dummy: bool, unit: UnitParams, dummy: DummyParams,
-            actuator: ActuatorParams, *, unit_mesh: str = "",
-            dummy_mesh: str = "") -> tuple[tuple[Body, ...], tuple[Link, ...]]:
+            actuator: ActuatorParams, *, unit_mesh: str = "", dummy_mesh: str = "",
+            actuated_axes: tuple[str, ...] = ("x",)) -> tuple[tuple[Body, ...], tuple[Link, ...]]:
     """Bodies and links of ``layers`` x ``rows`` x ``columns`` active units (and a dummy at the rear of every row).
 
     Row r (0-based) of layer l holds units at sites (0, -r, l), (-1, -r, l), ..., (1 - columns, -r, l) and its dummy
-    at (-columns, -r, l). Each unit's bellows joins it to the body behind it in its row (the last unit of a row with
-    no dummy has none); neighbouring rows are joined by passive links along y, neighbouring layers along z, at every
-    column (dummies included).
+    at (-columns, -r, l). Neighbouring bodies of a row are linked along x, neighbouring rows along y and neighbouring
+    layers along z, at every column (dummies included). Along each axis of ``actuated_axes`` a unit's pump drives
+    the link to the body behind it: the next body of its row (x), the body in the next row (y, towards -y), the body
+    below it (z: vertical bellows lift the layer above); every other link is passive. One pump may drive up to three
+    bellows, which then inflate together.
     """
     per_row = columns + (1 if has_dummy else 0)
     index = {}  # (layer, row, column) -> body index
@@ -78,25 +82,31 @@ def lattice(layers: int, rows: int, columns: int, has_dummy: bool, unit: UnitPar
                 index[layer, row, column] = len(bodies)
                 bodies.append(_body((-column, -row, layer), unit, dummy, actuator, is_dummy,
                                     dummy_mesh if is_dummy else unit_mesh))
+
+    def link(front: int, rear: int, axis: str) -> Link:
+        driven = axis in actuated_axes and not bodies[front].dummy
+        return Link(front=front, rear=rear, unit=front if driven else None)
+
     links = []
-    for (layer, row, column), b in index.items():  # bellows, in unit order
-        if column < columns and column + 1 < per_row:
-            links.append(Link(front=b, rear=index[layer, row, column + 1], unit=b))
-    for layer in range(layers):  # passive links along y
+    for (layer, row, column), b in index.items():  # along x, in unit order
+        if column + 1 < per_row:
+            links.append(link(b, index[layer, row, column + 1], "x"))
+    for layer in range(layers):  # along y
         for row in range(rows - 1):
             for column in range(per_row):
-                links.append(Link(front=index[layer, row, column], rear=index[layer, row + 1, column], unit=None))
-    for layer in range(layers - 1):  # passive links along z
+                links.append(link(index[layer, row, column], index[layer, row + 1, column], "y"))
+    for layer in range(layers - 1):  # along z
         for row in range(rows):
             for column in range(per_row):
-                links.append(Link(front=index[layer + 1, row, column], rear=index[layer, row, column], unit=None))
+                links.append(link(index[layer + 1, row, column], index[layer, row, column], "z"))
     return tuple(bodies), tuple(links)
 
 
 def grid(rows: int, columns: int, has_dummy: bool, unit: UnitParams, dummy: DummyParams, actuator: ActuatorParams,
-         *, unit_mesh: str = "", dummy_mesh: str = ""):
+         *, unit_mesh: str = "", dummy_mesh: str = "", actuated_axes: tuple[str, ...] = ("x",)):
     """Bodies and links of ``rows`` rows of ``columns`` units in the ground plane (a one-layer ``lattice``)."""
-    return lattice(1, rows, columns, has_dummy, unit, dummy, actuator, unit_mesh=unit_mesh, dummy_mesh=dummy_mesh)
+    return lattice(1, rows, columns, has_dummy, unit, dummy, actuator, unit_mesh=unit_mesh, dummy_mesh=dummy_mesh,
+                   actuated_axes=actuated_axes)
 
 
 def chain(n_units: int, has_dummy: bool, unit: UnitParams, dummy: DummyParams, actuator: ActuatorParams,

@@ -33,6 +33,10 @@ bellows pushing against the body behind it in its row, neighbouring rows joined 
     columns = 3
     dummy = true
 
+With ``actuated_axes = ["x", "y"]`` each unit also drives the link to the body in the next row (towards -y), so the
+grid can push sideways and turn; ``["y"]`` makes the links along x passive (a lattice also takes "z": vertical
+bellows that lift the layer above).
+
 A lattice, ``layers`` such grids stacked along z (layer 1 on the ground), joined by passive links along z::
 
     [assembly]
@@ -111,8 +115,8 @@ __all__ = ["GENERATORS", "MAX_UNITS", "MAX_BODIES", "chain", "load_shape", "read
 GENERATORS = ("chain", "grid", "lattice", "custom")
 ASSEMBLY_KEYS = {
     "chain": {"generator", "units", "dummy"},
-    "grid": {"generator", "rows", "columns", "dummy"},
-    "lattice": {"generator", "layers", "rows", "columns", "dummy"},
+    "grid": {"generator", "rows", "columns", "dummy", "actuated_axes"},
+    "lattice": {"generator", "layers", "rows", "columns", "dummy", "actuated_axes"},
     "custom": {"generator"},
 }
 TOP_KEYS = {"name", "description", "heading", "assembly", "unit", "dummy", "actuator", "units", "links", "transform"}
@@ -270,7 +274,13 @@ def _generate(generator: str, assembly: dict[str, Any], unit: UnitParams, dummy:
         raise ConfigError(source, "assembly.dummy", f"true: {what} bellows needs a body to push against", False)
     if generator == "chain":
         return chain(dims[2], has_dummy, unit, dummy, actuator, **meshes)
-    return lattice(*dims, has_dummy, unit, dummy, actuator, **meshes)
+    axes = "xyz" if generator == "lattice" else "xy"
+    actuated = assembly.get("actuated_axes", ["x"])
+    if not (isinstance(actuated, list) and actuated and all(isinstance(a, str) and a in axes for a in actuated)
+            and len(set(actuated)) == len(actuated)):
+        raise ConfigError(source, "assembly.actuated_axes", f"a non-empty list of distinct axes among "
+                          f"{', '.join(repr(a) for a in axes)} (along which each unit drives a bellows)", actuated)
+    return lattice(*dims, has_dummy, unit, dummy, actuator, **meshes, actuated_axes=tuple(actuated))
 
 
 def _count(assembly: dict[str, Any], key: str, source: str, expected: str) -> int:
