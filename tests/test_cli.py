@@ -24,7 +24,7 @@ CHAIN2 = str(SHAPES / "chain-2.toml")
 CHAIN3 = str(SHAPES / "chain-3.toml")
 RUN_FILES = {"units.parquet", "steps.parquet", "pieces.parquet", "summary.json", "learning_curve.png"}
 UNIT_COLUMNS = ["step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true",
-                "accepted", "x_m", "y_m"]  # records.py docs
+                "accepted", "x_m", "y_m", "heading_rad"]  # records.py docs
 STEP_COLUMNS = ["step", "time_s", "ubar", "ubar_true", "acceptance", "event"]
 
 

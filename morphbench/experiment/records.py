@@ -7,7 +7,8 @@ A run directory holds:
   ``phase_kept`` (cycles, 0..1), ``u_measured`` (mm/cycle, what the unit's sensor reported, noise included; NaN for a
   dead unit), ``u_true`` (mm/cycle, the unit's true displacement along its forward axis per cycle), ``accepted``
   (whether the learner kept the tried phase), ``x_m``, ``y_m`` (m, where the unit's centre is on the ground at the end
-  of the step: start and end positions, 2-D trajectories).
+  of the step: start and end positions, 2-D trajectories), ``heading_rad`` (the direction of the unit's forward axis
+  on the ground, from +x towards +y, in (-pi, pi]; ``turning_rate`` unwraps it).
 - ``steps.parquet``: one row per learning step: ``step``, ``time_s`` (simulated time at the end of the step),
   ``ubar`` (mean ``u_measured`` over the units that are not dead), ``ubar_true`` (the same units' true velocities),
   ``acceptance`` (fraction of those units that accepted) and ``event`` (the events applied at the start of the step,
@@ -30,7 +31,7 @@ import numpy as np
 import pandas as pd
 
 UNIT_COLUMNS = ("step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true", "accepted",
-                "x_m", "y_m")
+                "x_m", "y_m", "heading_rad")
 STEP_COLUMNS = ("step", "time_s", "ubar", "ubar_true", "acceptance", "event")
 PIECE_COLUMNS = ("step", "piece", "n_units", "ubar", "ubar_true")
 FINAL_FRACTION = 0.1  # final Ubar is the mean over the last 10% of learning steps (at least one)
@@ -45,13 +46,15 @@ class RunRecords:
         self._steps: dict[str, list] = {"step": [], "time_s": [], "event": []}
         self.wall_time: float | None = None
 
-    def add_step(self, step, time_s, tried, kept, u_measured, u_true, accepted, position, piece, xy, event="") -> None:
-        """One learning step; the arrays are per unit, in unit order (``xy``: (n, 2) ground positions, m)."""
+    def add_step(self, step, time_s, tried, kept, u_measured, u_true, accepted, position, piece, xy, heading,
+                 event="") -> None:
+        """One learning step; the arrays are per unit, in unit order (``xy``: (n, 2) ground positions, m;
+        ``heading``: rad)."""
         n = len(tried)
         for name, value in (("step", np.full(n, step)), ("unit", np.arange(1, n + 1)), ("position", position),
                             ("piece", piece), ("phase_tried", tried), ("phase_kept", kept),
                             ("u_measured", u_measured), ("u_true", u_true), ("accepted", accepted),
-                            ("x_m", xy[:, 0]), ("y_m", xy[:, 1])):
+                            ("x_m", xy[:, 0]), ("y_m", xy[:, 1]), ("heading_rad", heading)):
             self._units[name].append(np.asarray(value))
         self._steps["step"].append(step)
         self._steps["time_s"].append(time_s)

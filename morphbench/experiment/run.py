@@ -31,6 +31,7 @@ from morphbench.params import (
 from morphbench.physics import World, make_world
 from morphbench.physics.camera import CameraGround
 from morphbench.sensing import GroundTexture, IdealSensor, OpticalSensor, Sensor
+from morphbench.sensing.base import forward_axes
 from morphbench.shapes import Shape, load_shape, params_from_dict
 from morphbench.shapes.transforms import shuffle_order
 
@@ -197,8 +198,10 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
             kept = np.array([learner.phase for learner in learners], dtype=float)
             piece_of_body = {body: k for k, piece in enumerate(world.pieces()) for body in piece}
             piece = np.array([piece_of_body[shape.units[p]] for p in position]) + 1
-            xy = world.unit_poses()[0][position, :2]  # the world lists units by position
-            records.add_step(step, world.time, tried, kept, u_measured, u_true, accepted, position + 1, piece, xy,
+            positions, orientations = world.unit_poses()  # the world lists units by position
+            axes = forward_axes(orientations[position])
+            records.add_step(step, world.time, tried, kept, u_measured, u_true, accepted, position + 1, piece,
+                             positions[position, :2], np.arctan2(axes[:, 1], axes[:, 0]),
                              "; ".join(event.describe() for event in events.get(step, ())))
             if progress is not None:
                 progress(step, records)
