@@ -82,6 +82,37 @@ class Bellows:
         pumping = np.mod(t[:, None] / actuator.cycle_time - self.phases, 1.0) < actuator.alpha
         return pumping & np.array([d != "dead" for d in self.damage])
 
+    def _advance_quasistatic(self, n_ticks: int, on_tick, pumps: bool, every: int, solve) -> None:
+        """``advance`` of a quasi-static world (no inertia, so ticks can be solved in batches): pressures, rest
+        lengths and friction limits for the coming ticks, then ``solve(lengths, limits)`` over segments that end
+        where a callback is due or the friction field is read again at the bodies' new places."""
+        if n_ticks <= 0:
+            return
+        start = self.time
+        trajectory = self._pressures(start, n_ticks, pumps)
+        lengths = self._rest_lengths(trajectory)  # (n_ticks, n_links)
+        n_bodies = len(self.shape.bodies)
+        friction = np.broadcast_to(self._base_friction * self._friction_scale, (n_ticks, n_bodies)).copy()
+        if pumps and self.environment.vibration != 1.0:
+            pumping = self._pumping(start, n_ticks)
+            friction[:, self._unit_bodies] *= np.where(pumping, self.environment.vibration, 1.0)
+        limits = friction * np.array([body.mass * GRAVITY for body in self.shape.bodies])
+        breaks = set(range(every, n_ticks + 1, every)) if on_tick is not None else set()
+        field_ticks = set(range(0, n_ticks, max(1, round(FIELD_UPDATE_PERIOD / self.tick)))) if self._field else set()
+        breaks |= field_ticks
+        breaks.add(n_ticks)
+        begin, factor = 0, 1.0
+        for end in sorted(b for b in breaks if b > 0):
+            if begin in field_ticks:
+                xy = self.poses()[0][:, :2]
+                factor = self._field.friction(1.0, xy[:, 0], xy[:, 1])
+            solve(lengths[begin:end], limits[begin:end] * factor)
+            if on_tick is not None and end % every == 0:
+                self.pressure, self.time = trajectory[end - 1], start + end * self.tick
+                on_tick(end - 1)
+            begin = end
+        self.pressure, self.time = trajectory[-1], start + n_ticks * self.tick
+
     def set_damage(self, unit: int, mode: str) -> None:
         """Damage the active unit at ``unit`` (unit order, 0-based): 'no-inflate' (its bellows cannot extend; pump and
         vibration go on), 'stuck' (its bellows keeps its current length), 'dead' (no pump, no vibration); '' heals."""

@@ -27,7 +27,7 @@ import numpy as np
 
 from morphbench.errors import ConfigError
 from morphbench.params import EnvironmentParams, PhysicsParams
-from morphbench.physics.bellows import FIELD_UPDATE_PERIOD, GRAVITY, Bellows
+from morphbench.physics.bellows import Bellows
 from morphbench.shapes.model import Shape
 
 _FLAT_TOLERANCE = 1e-9  # m: bodies whose centres differ in height by more than this are not on one layer
@@ -75,7 +75,6 @@ class PlanarWorld(Bellows):
         self.q[:, :2] = self._rest[:, :2]
         self._last = np.zeros_like(self.q)
         """the previous tick's increments: where the next solve starts from."""
-        self._weight = np.array([body.mass * GRAVITY for body in shape.bodies])
         self._rho = np.array([friction_radius(body.size[0], body.size[1]) for body in shape.bodies])
         actuator = shape.actuator
         self._stiffness = np.array([actuator.stiffness, actuator.shear_stiffness, actuator.bending_stiffness])
@@ -90,30 +89,7 @@ class PlanarWorld(Bellows):
 
     def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
         """Run ``n_ticks`` ticks; ``on_tick(k)`` after tick k when k + 1 is a multiple of ``every`` (as World)."""
-        if n_ticks <= 0:
-            return
-        start = self.time
-        trajectory = self._pressures(start, n_ticks, pumps)
-        lengths = self._rest_lengths(trajectory)  # (n_ticks, n_links)
-        friction = np.broadcast_to(self._base_friction * self._friction_scale, (n_ticks, len(self.q))).copy()
-        if pumps and self.environment.vibration != 1.0:
-            pumping = self._pumping(start, n_ticks)
-            friction[:, self._unit_bodies] *= np.where(pumping, self.environment.vibration, 1.0)
-        limits = friction * self._weight
-        breaks = set(range(every, n_ticks + 1, every)) if on_tick is not None else set()
-        field_ticks = set(range(0, n_ticks, max(1, round(FIELD_UPDATE_PERIOD / self.tick)))) if self._field else set()
-        breaks |= field_ticks
-        breaks.add(n_ticks)
-        begin, factor = 0, 1.0
-        for end in sorted(b for b in breaks if b > 0):
-            if begin in field_ticks:
-                factor = self._field.friction(1.0, self.q[:, 0], self.q[:, 1])
-            self.relax_ticks(lengths[begin:end], limits[begin:end] * factor)
-            if on_tick is not None and end % every == 0:
-                self.pressure, self.time = trajectory[end - 1], start + end * self.tick
-                on_tick(end - 1)
-            begin = end
-        self.pressure, self.time = trajectory[-1], start + n_ticks * self.tick
+        self._advance_quasistatic(n_ticks, on_tick, pumps, every, self.relax_ticks)
 
     def relax_ticks(self, lengths, limits) -> None:
         """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``

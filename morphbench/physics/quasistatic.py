@@ -23,7 +23,7 @@ import numpy as np
 
 from morphbench.errors import ConfigError
 from morphbench.params import EnvironmentParams, PhysicsParams
-from morphbench.physics.bellows import FIELD_UPDATE_PERIOD, GRAVITY, Bellows
+from morphbench.physics.bellows import Bellows
 from morphbench.shapes.model import Shape
 
 _IDENTITY = (0.0, 0.0, 0.0, 1.0)
@@ -70,7 +70,6 @@ class QuasiStaticWorld(Bellows):
         """m, each body's displacement along the axis from its rest position."""
         # +1 where a link's front lies along +axis from its rear: its length is pitch + sign * (s_front - s_rear).
         self._sign = np.array([np.sign(np.dot(self._rest[f] - self._rest[r], self.axis)) for f, r in self._links])
-        self._weight = np.array([body.mass * GRAVITY for body in shape.bodies])
         self._build_paths()
         self.time = 0.0
         """s, the pumps' clock (nothing needs settling: bodies start at rest on the ground)."""
@@ -107,34 +106,13 @@ class QuasiStaticWorld(Bellows):
 
     def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
         """Run ``n_ticks`` ticks; ``on_tick(k)`` after tick k when k + 1 is a multiple of ``every`` (as World)."""
-        if n_ticks <= 0:
-            return
-        start, actuator = self.time, self.shape.actuator
-        trajectory = self._pressures(start, n_ticks, pumps)
-        extension = self._rest_lengths(trajectory) - self._empty_pitch  # (n_ticks, n_links)
-        friction = np.broadcast_to(self._base_friction * self._friction_scale, (n_ticks, len(self.s))).copy()
-        if pumps and self.environment.vibration != 1.0:
-            pumping = self._pumping(start, n_ticks)
-            friction[:, self._unit_bodies] *= np.where(pumping, self.environment.vibration, 1.0)
-        limits = friction * self._weight
-        # Segments end where a callback is due or the friction field is read again at the bodies' new places.
-        breaks = set(range(every, n_ticks + 1, every)) if on_tick is not None else set()
-        field_ticks = set(range(0, n_ticks, max(1, round(FIELD_UPDATE_PERIOD / self.tick)))) if self._field else set()
-        breaks |= field_ticks
-        breaks.add(n_ticks)
-        begin, factor = 0, 1.0
-        inverse_k, cap = 1.0 / actuator.stiffness, actuator.max_force
-        for end in sorted(b for b in breaks if b > 0):
-            if begin in field_ticks:
-                xy = self.poses()[0][:, :2]
-                factor = self._field.friction(1.0, xy[:, 0], xy[:, 1])
-            _solve_ticks(self.s, extension[begin:end], limits[begin:end] * factor, self._order, self._starts,
-                         self._pair_link, self._pair_sign, inverse_k, cap)
-            if on_tick is not None and end % every == 0:
-                self.pressure, self.time = trajectory[end - 1], start + end * self.tick
-                on_tick(end - 1)
-            begin = end
-        self.pressure, self.time = trajectory[-1], start + n_ticks * self.tick
+        actuator = self.shape.actuator
+
+        def solve(lengths, limits):
+            _solve_ticks(self.s, lengths - self._empty_pitch, limits, self._order, self._starts, self._pair_link,
+                         self._pair_sign, 1.0 / actuator.stiffness, actuator.max_force)
+
+        self._advance_quasistatic(n_ticks, on_tick, pumps, every, solve)
 
     def relax(self, extension, limits) -> None:
         """One tick: move the bodies to the minimiser of the incremental energy, given each bellows' extension
