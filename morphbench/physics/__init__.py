@@ -8,7 +8,7 @@ along a line by ``QuasiStaticWorld`` for chains and by ``PlanarWorld`` for any a
 
 from morphbench.errors import ConfigError
 from morphbench.params import PHYSICS_BACKENDS, EnvironmentParams, PhysicsParams
-from morphbench.physics.planar import PlanarWorld, planar_links
+from morphbench.physics.planar import PlanarWorld, check_one_layer
 from morphbench.physics.pressure import pressure_trajectory, pump_on
 from morphbench.physics.quasistatic import QuasiStaticWorld, chain_axis
 from morphbench.physics.world import World
@@ -20,7 +20,7 @@ def quasistatic_world(shape, physics: PhysicsParams, environment: EnvironmentPar
     try:
         chain_axis(shape)
     except ConfigError:
-        planar_links(shape)
+        check_one_layer(shape)
         return PlanarWorld(shape, physics, environment)
     return QuasiStaticWorld(shape, physics, environment)
 

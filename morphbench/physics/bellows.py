@@ -34,6 +34,10 @@ class Bellows:
         """m, each bellows' stroke (a unit may override the shape's)."""
         self._empty_pitch = np.array([np.linalg.norm(rest[f] - rest[r]) for f, r in self._links])
         """m, centre-to-centre distance of each link's two bodies when its bellows is empty."""
+        self._front = np.array([f for f, _ in self._links], dtype=np.int64)
+        self._rear = np.array([r for _, r in self._links], dtype=np.int64)
+        self._axes = np.reshape([(rest[f] - rest[r]) / p for (f, r), p in zip(self._links, self._empty_pitch)], (-1, 3))
+        """each link's unit axis from rear to front at rest (bodies start unrotated, so also in both bodies' frames)."""
         self.intact = np.ones(len(shape.links), dtype=bool)
         """for each link, False once it has been cut."""
         self.pressure = np.zeros(len(shape.links))
@@ -124,6 +128,14 @@ class Bellows:
         driven = self.link_units == unit
         self._stuck_length[driven] = (self._empty_pitch + self._strokes * self.pressure)[driven] \
             if mode == "stuck" else np.nan
+
+    def set_friction_scale(self, scale: float) -> None:
+        """Multiply every body's friction by ``scale`` from now on (instead of the environment's scale)."""
+        self._friction_scale = scale
+
+    def cut(self, link: int) -> None:
+        """Cut link ``link`` (index into shape.links): its springs are gone; the pieces move apart freely."""
+        self.intact[link] = False
 
     def pieces(self) -> list[list[int]]:
         """Connected groups of body indices over the intact links, the piece holding body 0 first."""

@@ -35,18 +35,12 @@ FORCE_TOLERANCE = 1e-10
 """N, largest force imbalance (and stick-condition violation) a solve leaves."""
 
 
-def planar_links(shape: Shape) -> np.ndarray:
-    """(n_links, 2) unit vectors of each link's rest axis in the ground plane, from rear to front; a ConfigError if the
-    assembly does not lie on the ground in one layer (a stack) or a link is not horizontal."""
-    positions = np.array([body.position for body in shape.bodies], dtype=float)
-    if np.ptp(positions[:, 2]) > _FLAT_TOLERANCE:
+def check_one_layer(shape: Shape) -> None:
+    """A ConfigError unless every body lies on the ground in one layer (not a stack): what the planar model needs."""
+    heights = [body.position[2] for body in shape.bodies]
+    if max(heights) - min(heights) > _FLAT_TOLERANCE:
         raise ConfigError(shape.source, "assembly", "one layer of bodies on the ground for the planar quasi-static "
                           "physics; use --physics fast or reference for stacks")
-    axes = np.zeros((len(shape.links), 2))
-    for i, link in enumerate(shape.links):
-        d = positions[link.front] - positions[link.rear]
-        axes[i] = d[:2] / np.linalg.norm(d[:2])
-    return axes
 
 
 def friction_radius(length: float, width: float, samples: int = 64) -> float:
@@ -69,7 +63,9 @@ class PlanarWorld(Bellows):
         self.physics = physics
         self.tick = physics.timestep
         """s, one solve: pressures and poses are updated every tick."""
-        self._axes = planar_links(shape)
+        check_one_layer(shape)
+        self._plane_axes = np.ascontiguousarray(self._axes[:, :2])
+        """each link's rest axis in the ground plane (one layer: its links are horizontal)."""
         self.q = np.zeros((len(shape.bodies), 3))
         """each body's (x, y) in m and heading in rad: positions start at rest, headings at 0."""
         self.q[:, :2] = self._rest[:, :2]
@@ -82,8 +78,6 @@ class PlanarWorld(Bellows):
         """Newton steps taken so far (a measure of the solver's work)."""
         self.unconverged_ticks = 0
         """ticks whose solve stopped before meeting FORCE_TOLERANCE (expected 0)."""
-        self._front = np.array([f for f, _ in self._links], dtype=np.int64)
-        self._rear = np.array([r for _, r in self._links], dtype=np.int64)
         self.time = 0.0
         """s, the pumps' clock (nothing needs settling: bodies start at rest on the ground)."""
 
@@ -95,20 +89,10 @@ class PlanarWorld(Bellows):
         """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``
         (n_ticks, n_bodies) each body's friction limit (N)."""
         total, failed = _solve_ticks(self.q, self._last, np.asarray(lengths, dtype=float), np.asarray(limits, dtype=float),
-                     self._front, self._rear, self._axes, self.intact, self._stiffness,
+                     self._front, self._rear, self._plane_axes, self.intact, self._stiffness,
                      self.shape.actuator.max_force, self._rho)
         self.newton_steps += total
         self.unconverged_ticks += failed
-
-    def set_friction_scale(self, scale: float) -> None:
-        self._friction_scale = scale
-
-    def cut(self, link: int) -> None:
-        self.intact[link] = False
-
-    def headings(self) -> np.ndarray:
-        """rad, each body's heading (turn about z from its rest orientation), unwrapped."""
-        return self.q[:, 2].copy()
 
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
         index = np.arange(len(self.q)) if which is None else np.asarray(which, dtype=int)
@@ -120,9 +104,8 @@ class PlanarWorld(Bellows):
 
 @numba.njit(cache=True)
 def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, hess):
-    """The links' elastic energy at increments ``u`` (linearised strains about ``q``), adding its gradient and its
-    (generalised) Hessian into ``grad`` and ``hess``."""
-    energy = 0.0
+    """Add the gradient and the (generalised) Hessian of the links' elastic energy at increments ``u`` (linearised
+    strains about ``q``) into ``grad`` and ``hess``."""
     jac = np.empty((3, 6))
     strain = np.empty(3)
     index = np.empty(6, dtype=np.int64)
@@ -150,18 +133,15 @@ def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, 
             k = stiffness[m]
             if m == 0 and abs(k * z) > cap:  # the bellows gives way at its force cap: linear energy, no stiffness
                 force = cap if z > 0 else -cap
-                energy += cap * abs(z) - 0.5 * cap * cap / k
                 curvature = 0.0
             else:
                 force = k * z
-                energy += 0.5 * k * z * z
                 curvature = k
             for j in range(6):
                 grad[index[j]] += force * jac[m, j]
                 if curvature != 0.0:
                     for i in range(6):
                         hess[index[i], index[j]] += curvature * jac[m, i] * jac[m, j]
-    return energy
 
 
 @numba.njit(cache=True)
@@ -228,7 +208,8 @@ def _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, l
 
 
 @numba.njit(cache=True)
-def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap, rho):
+def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap, scale, grad, hess, v, prox, t_grad,
+                t_hess, t_v, t_prox):
     """Increments ``u`` (3 n, updated in place from its initial guess) minimising the tick's incremental energy;
     returns the number of Newton steps, -1 if FORCE_TOLERANCE was not met.
 
@@ -236,23 +217,16 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
     of the friction term shrinks each body's scaled increment towards 0 by gamma w_i): where the gradient step leaves
     a body inside its friction ball it sticks (z_i = 0), elsewhere the Newton system couples the sliding bodies
     through the springs and a tangential friction stiffness w_i / (|v_i| - gamma w_i). A step that does not reduce
-    the residual falls back to the proximal gradient step itself, which always reduces the energy."""
+    the residual falls back to the proximal gradient step itself, which always reduces the energy.
+
+    ``scale`` is the friction metric (1, 1, rho) per body; the other arrays are workspace (the gradient, Hessian,
+    gradient step and prox of the current and of the trial increments), overwritten."""
     n = len(limits)
-    scale = np.empty(3 * n)  # the friction metric: (1, 1, rho) per body
-    for i in range(n):
-        scale[3 * i], scale[3 * i + 1], scale[3 * i + 2] = 1.0, 1.0, rho[i]
     z = u * scale
-    grad = np.zeros(3 * n)
-    hess = np.zeros((3 * n, 3 * n))
-    v = np.zeros(3 * n)
-    prox = np.zeros(3 * n)
-    t_grad = np.zeros(3 * n)
-    t_hess = np.zeros((3 * n, 3 * n))
-    t_v = np.zeros(3 * n)
-    t_prox = np.zeros(3 * n)
     # gamma below 1 / (largest eigenvalue of the Hessian): the uncapped Hessian's largest row sum (Gershgorin).
-    _link_terms(q, np.zeros(3 * n), front, rear, axes, intact, np.array([stiffness[0], stiffness[1], stiffness[2]]),
-                np.inf, lengths, grad, hess)
+    grad[:] = 0.0
+    hess[:, :] = 0.0
+    _link_terms(q, np.zeros(3 * n), front, rear, axes, intact, stiffness, np.inf, lengths, grad, hess)
     top = 0.0
     for a in range(3 * n):
         row = 0.0
@@ -332,8 +306,7 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
                                 t_grad, t_hess, t_v, t_prox)
         z = trial
         worst = t_worst
-        grad[:], v[:], prox[:] = t_grad, t_v, t_prox
-        hess[:, :] = t_hess
+        grad, t_grad, hess, t_hess, v, t_v, prox, t_prox = t_grad, grad, t_hess, hess, t_v, v, t_prox, prox
     u[:] = z / scale
     return -1
 
@@ -344,12 +317,17 @@ def _solve_ticks(q, last, lengths, limits, front, rear, axes, intact, stiffness,
     previous increments, each tick's first guess."""
     n = q.shape[0]
     u = np.empty(3 * n)
+    scale = np.ones(3 * n)  # the friction metric: (1, 1, rho) per body
+    scale[2::3] = rho
+    vectors = [np.empty(3 * n) for _ in range(6)]
+    hess, t_hess = np.empty((3 * n, 3 * n)), np.empty((3 * n, 3 * n))
     total, failed = 0, 0
     for t in range(lengths.shape[0]):
         for i in range(n):
             for j in range(3):
                 u[3 * i + j] = last[i, j]
-        iterations = _solve_tick(q, u, lengths[t], limits[t], front, rear, axes, intact, stiffness, cap, rho)
+        iterations = _solve_tick(q, u, lengths[t], limits[t], front, rear, axes, intact, stiffness, cap, scale,
+                                 vectors[0], hess, vectors[1], vectors[2], vectors[3], t_hess, vectors[4], vectors[5])
         if iterations < 0:
             failed += 1
         else:

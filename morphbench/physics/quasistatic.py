@@ -106,23 +106,21 @@ class QuasiStaticWorld(Bellows):
 
     def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
         """Run ``n_ticks`` ticks; ``on_tick(k)`` after tick k when k + 1 is a multiple of ``every`` (as World)."""
+        self._advance_quasistatic(n_ticks, on_tick, pumps, every, self.relax_ticks)
+
+    def relax_ticks(self, lengths, limits) -> None:
+        """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``
+        (n_ticks, n_bodies) each body's friction limit (N)."""
         actuator = self.shape.actuator
-
-        def solve(lengths, limits):
-            _solve_ticks(self.s, lengths - self._empty_pitch, limits, self._order, self._starts, self._pair_link,
-                         self._pair_sign, 1.0 / actuator.stiffness, actuator.max_force)
-
-        self._advance_quasistatic(n_ticks, on_tick, pumps, every, solve)
+        _solve_ticks(self.s, np.asarray(lengths, dtype=float) - self._empty_pitch, np.asarray(limits, dtype=float),
+                     self._order, self._starts, self._pair_link, self._pair_sign, 1.0 / actuator.stiffness,
+                     actuator.max_force)
 
     def relax(self, extension, limits) -> None:
         """One tick: move the bodies to the minimiser of the incremental energy, given each bellows' extension
         beyond its empty length (m, one per link) and each body's friction limit (N, one per body)."""
-        _solve_ticks(self.s, np.asarray(extension, dtype=float)[None, :], np.asarray(limits, dtype=float)[None, :],
-                     self._order, self._starts, self._pair_link, self._pair_sign, 1.0 / self.shape.actuator.stiffness,
-                     self.shape.actuator.max_force)
-
-    def set_friction_scale(self, scale: float) -> None:
-        self._friction_scale = scale
+        self.relax_ticks((self._empty_pitch + np.asarray(extension, dtype=float))[None, :],
+                         np.asarray(limits, dtype=float)[None, :])
 
     def cut(self, link: int) -> None:
         if self.intact[link]:

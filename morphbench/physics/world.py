@@ -58,13 +58,8 @@ class World(Bellows):
         pb.changeDynamics(self.ground, -1, lateralFriction=GROUND_FRICTION, physicsClientId=c)
         self.bodies = [self._add_body(body) for body in shape.bodies]
         n_links = len(shape.links)
-        self._axes = np.array([(self._rest[f] - self._rest[r]) / p for (f, r), p in zip(self._links, self._empty_pitch)])
-        self._axes.shape = (n_links, 3)
-        """each link's axis from rear to front at rest, in both bodies' frames (bodies start unrotated)."""
         # each link's length, shear offset and relative rotation at the previous substep: their rates damp the springs
         self._previous = (self._empty_pitch.copy(), np.zeros((n_links, 3)), np.zeros((n_links, 3)))
-        self._front = np.array([f for f, _ in self._links], dtype=np.int64)
-        self._rear = np.array([r for _, r in self._links], dtype=np.int64)
         self._applied_friction = self._base_friction.copy()
         self._apply_friction(self.poses()[0], np.zeros(shape.n_units, dtype=bool))
         # Settle with the bellows' springs holding their rest lengths (a stacked layer rests on them, not on the
@@ -157,13 +152,8 @@ class World(Bellows):
         self._applied_friction = friction
 
     def set_friction_scale(self, scale: float) -> None:
-        """Multiply every body's friction by ``scale`` from now on (instead of the environment's scale)."""
-        self._friction_scale = scale
+        super().set_friction_scale(scale)
         self._apply_friction(self.poses()[0], None)
-
-    def cut(self, link: int) -> None:
-        """Cut link ``link`` (index into shape.links): its springs are gone; the pieces move apart freely."""
-        self.intact[link] = False
 
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
         """Positions (N, 3, m) and orientations (N, 4 quaternions x, y, z, w) of the given bodies (default all)."""
