@@ -98,8 +98,7 @@ class PhysicsParams:
     Coulomb friction without inertia, exact and fast, for any assembly in one layer on the ground (solved along the
     axis for a chain, morphbench.physics.quasistatic, and in the plane otherwise, morphbench.physics.planar);
     'auto': quasistatic where it applies, pybullet for stacks (and for the camera sensor, which renders a PyBullet
-    scene). The quasi-static model is the converged physics; the PyBullet world is not yet converged
-    (docs/fidelity.md)."""
+    scene). The quasi-static model is the limit the PyBullet world converges to (docs/fidelity.md)."""
     timestep: float = 1 / 120
     """s, physics step (quasistatic: the interval between solves; the solution depends on time only through the
     pressures)."""
@@ -110,6 +109,12 @@ class PhysicsParams:
     links than the default, or stacks of three layers or more, need 2 or more."""
     settle_time: float = 0.25
     """s, simulated before the first cycle so the units rest on the ground (pybullet only)."""
+    cone_friction: bool = True
+    """pybullet only: Bullet's implicit friction cone (True) or its pyramid of two friction directions per contact
+    (False). Along a chain turned to any angle on the ground the cone is isotropic and the pyramid is not (it is
+    18% slower at 30 degrees); a turning grid turns with the cone about as the planar model says, with a small
+    chirality (a body twisted counter-clockwise slides a little more easily), and hardly at all with the pyramid
+    (docs/fidelity.md, "In the plane")."""
 
 
 PHYSICS_BACKENDS = ("auto", "pybullet", "quasistatic")

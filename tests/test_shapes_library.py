@@ -312,7 +312,7 @@ BAD = [
     ("heading-short", "heading = [1, 0]\n" + CHAIN, "heading", "three finite numbers"),
     ("heading-string", 'heading = "north"\n' + CHAIN, "heading", "three finite numbers"),
     ("transform-unknown", CHAIN + "[transform]\nmirror = true\n", "transform.mirror",
-     "one of the known keys cut, shuffle"),
+     "one of the known keys cut, rotate, shuffle"),
     ("transform-not-table", "transform = 3\n" + CHAIN, "transform", "a table"),
     ("shuffle-negative-seed", CHAIN + "[transform]\nshuffle = {seed = -1}\n", "transform.shuffle.seed",
      "an integer >= 0"),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import itertools
 from contextlib import nullcontext
+from dataclasses import dataclass
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable
 
@@ -38,14 +39,38 @@ def scan_phases(n_units: int, resolution: int, samples: int | None = None, seed:
     return np.hstack([np.zeros((len(grid), 1)), grid])
 
 
-def velocity_at(shape: Shape, phases, physics: PhysicsParams = DEFAULT_PHYSICS, cycles: int = DEFAULT_CYCLES,
-                discard: int = DEFAULT_DISCARD, environment: EnvironmentParams = EnvironmentParams()) -> np.ndarray:
-    """True velocity of each unit (mm/cycle) at fixed phases, averaged over ``cycles`` after ``discard``."""
+@dataclass(frozen=True)
+class Motion:
+    """How an assembly moves at fixed phases, per pump cycle."""
+
+    units: np.ndarray
+    """mm/cycle, each unit's true velocity along its own forward axis (unit order)."""
+    centroid: np.ndarray
+    """mm/cycle, (x, y) velocity of the mean of all bodies' centres on the ground."""
+    turning: float
+    """degrees/cycle, mean rate at which the bodies turn about the vertical (> 0 counter-clockwise from above)."""
+
+
+def motion_at(shape: Shape, phases, physics: PhysicsParams = DEFAULT_PHYSICS, cycles: int = DEFAULT_CYCLES,
+              discard: int = DEFAULT_DISCARD, environment: EnvironmentParams = EnvironmentParams()) -> Motion:
+    """The assembly's motion at fixed phases, averaged over ``cycles`` after ``discard`` (a fresh world)."""
     with make_world(shape, physics, environment) as world:
         world.set_phases(phases)
         world.advance(world.ticks_in(discard * shape.actuator.cycle_time))
+        start, start_turn = world.poses()
         (displacement,) = measure(world, [IdealSensor(shape.n_units, sample_period=0.5)], cycles)
-    return displacement * 1000.0 / cycles
+        end, end_turn = world.poses()
+    # yaw change of each body from its quaternions (it turns far less than half a turn over a measurement)
+    turned = 2 * (np.arctan2(end_turn[:, 2], end_turn[:, 3]) - np.arctan2(start_turn[:, 2], start_turn[:, 3]))
+    turned = np.angle(np.exp(1j * turned))
+    return Motion(units=displacement * 1000.0 / cycles, centroid=(end - start)[:, :2].mean(axis=0) * 1000.0 / cycles,
+                  turning=float(np.degrees(turned.mean())) / cycles)
+
+
+def velocity_at(shape: Shape, phases, physics: PhysicsParams = DEFAULT_PHYSICS, cycles: int = DEFAULT_CYCLES,
+                discard: int = DEFAULT_DISCARD, environment: EnvironmentParams = EnvironmentParams()) -> np.ndarray:
+    """True velocity of each unit (mm/cycle) at fixed phases, averaged over ``cycles`` after ``discard``."""
+    return motion_at(shape, phases, physics, cycles, discard, environment).units
 
 
 def _ubar(args) -> float:

@@ -22,8 +22,8 @@ class Bellows:
 
     def __init__(self, shape: Shape, environment: EnvironmentParams):
         self.shape, self.environment = shape, environment
-        self._rest = rest = np.array([body.position for body in shape.bodies], dtype=float)
-        """m, each body's position at rest (empty bellows)."""
+        self._rest = rest = shape.placed_positions()
+        """m, each body's position at rest (empty bellows) on the ground."""
         self._links = [(link.front, link.rear) for link in shape.links]
         unit_index = {body: k for k, body in enumerate(shape.units)}
         self.link_units = np.array([-1 if link.unit is None else unit_index[link.unit] for link in shape.links],
@@ -36,8 +36,10 @@ class Bellows:
         """m, centre-to-centre distance of each link's two bodies when its bellows is empty."""
         self._front = np.array([f for f, _ in self._links], dtype=np.int64)
         self._rear = np.array([r for _, r in self._links], dtype=np.int64)
-        self._axes = np.reshape([(rest[f] - rest[r]) / p for (f, r), p in zip(self._links, self._empty_pitch)], (-1, 3))
-        """each link's unit axis from rear to front at rest (bodies start unrotated, so also in both bodies' frames)."""
+        own = np.array([body.position for body in shape.bodies], dtype=float)
+        self._axes = np.reshape([(own[f] - own[r]) / p for (f, r), p in zip(self._links, self._empty_pitch)], (-1, 3))
+        """each link's unit axis from rear to front at rest in the assembly's frame, which is also both bodies' own
+        frame (every body starts turned by the shape's yaw)."""
         self.intact = np.ones(len(shape.links), dtype=bool)
         """for each link, False once it has been cut."""
         self.pressure = np.zeros(len(shape.links))

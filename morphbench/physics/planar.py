@@ -65,10 +65,11 @@ class PlanarWorld(Bellows):
         """s, one solve: pressures and poses are updated every tick."""
         check_one_layer(shape)
         self._plane_axes = np.ascontiguousarray(self._axes[:, :2])
-        """each link's rest axis in the ground plane (one layer: its links are horizontal)."""
+        """each link's rest axis in its bodies' own frame, in the plane (one layer: its links are horizontal)."""
         self.q = np.zeros((len(shape.bodies), 3))
-        """each body's (x, y) in m and heading in rad: positions start at rest, headings at 0."""
+        """each body's (x, y) in m and heading in rad: positions start at rest, headings at the shape's yaw."""
         self.q[:, :2] = self._rest[:, :2]
+        self.q[:, 2] = shape.yaw
         self._last = np.zeros_like(self.q)
         """the previous tick's increments: where the next solve starts from."""
         self._rho = np.array([friction_radius(body.size[0], body.size[1]) for body in shape.bodies])

@@ -26,7 +26,6 @@ from morphbench.params import EnvironmentParams, PhysicsParams
 from morphbench.physics.bellows import Bellows
 from morphbench.shapes.model import Shape
 
-_IDENTITY = (0.0, 0.0, 0.0, 1.0)
 _AXIS_TOLERANCE = 1e-9  # links whose directions differ by more than this are not on one axis
 
 
@@ -63,7 +62,8 @@ class QuasiStaticWorld(Bellows):
     def __init__(self, shape: Shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
         super().__init__(shape, environment)
         self.physics = physics
-        self.axis = chain_axis(shape)
+        self.axis = shape.rotation @ chain_axis(shape)
+        """the chain's axis on the ground."""
         self.tick = physics.timestep
         """s, one solve: pressures and positions are updated every tick."""
         self.s = np.zeros(len(shape.bodies))
@@ -130,7 +130,7 @@ class QuasiStaticWorld(Bellows):
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
         index = np.arange(len(self.s)) if which is None else np.asarray(which, dtype=int)
         positions = self._rest[index] + self.s[index, None] * self.axis
-        return positions, np.tile(_IDENTITY, (len(index), 1))
+        return positions, np.tile(self.shape.orientation, (len(index), 1))
 
 
 @numba.njit(cache=True)

@@ -52,11 +52,12 @@ class World(Bellows):
         pb.setPhysicsEngineParameter(
             fixedTimeStep=self.tick / physics.substeps,
             numSolverIterations=physics.solver_iterations,
+            enableConeFriction=int(physics.cone_friction),
             physicsClientId=c,
         )
         self.ground = pb.createMultiBody(0, pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=c), physicsClientId=c)
         pb.changeDynamics(self.ground, -1, lateralFriction=GROUND_FRICTION, physicsClientId=c)
-        self.bodies = [self._add_body(body) for body in shape.bodies]
+        self.bodies = [self._add_body(body, position.tolist()) for body, position in zip(shape.bodies, self._rest)]
         n_links = len(shape.links)
         # each link's length, shear offset and relative rotation at the previous substep: their rates damp the springs
         self._previous = (self._empty_pitch.copy(), np.zeros((n_links, 3)), np.zeros((n_links, 3)))
@@ -69,7 +70,7 @@ class World(Bellows):
         self.time = 0.0
         """s, time since the end of settling: the pumps' clock."""
 
-    def _add_body(self, body) -> int:
+    def _add_body(self, body, position) -> int:
         c, shapes = self.client, body_shapes(self.client, body)
         lx, ly, lz = (size / 2 for size in body.size)
         r = FOOT_RADIUS
@@ -78,7 +79,8 @@ class World(Bellows):
             [pb.GEOM_SPHERE] * 4 + [pb.GEOM_BOX], radii=[r] * 4 + [0.0],
             halfExtents=[[0, 0, 0]] * 4 + [[lx, ly, lz - BOX_LIFT / 2]],
             collisionFramePositions=feet + [[0, 0, BOX_LIFT / 2]], physicsClientId=c)
-        uid = pb.createMultiBody(body.mass, collision, shapes.visual, basePosition=body.position, physicsClientId=c)
+        uid = pb.createMultiBody(body.mass, collision, shapes.visual, basePosition=position,
+                                baseOrientation=self.shape.orientation, physicsClientId=c)
         pb.changeDynamics(uid, -1, lateralFriction=body.friction,
                           localInertiaDiagonal=[ROTATIONAL_INERTIA_SCALE * i for i in shapes.inertia],
                           physicsClientId=c)

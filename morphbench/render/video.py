@@ -141,10 +141,10 @@ class RenderScene:
     def __init__(self, shape):
         self.client = pb.connect(pb.DIRECT)
         self.bodies = []
-        for body in shape.bodies:
+        for body, position in zip(shape.bodies, shape.placed_positions()):
             shapes = body_shapes(self.client, body)
-            self.bodies.append(pb.createMultiBody(0, shapes.collision, shapes.visual, basePosition=body.position,
-                                                  physicsClientId=self.client))
+            self.bodies.append(pb.createMultiBody(0, shapes.collision, shapes.visual, basePosition=position.tolist(),
+                                                  baseOrientation=shape.orientation, physicsClientId=self.client))
 
     def place(self, positions, orientations) -> None:
         for uid, position, orientation in zip(self.bodies, positions, orientations):
@@ -277,8 +277,10 @@ class VideoRecorder:
 
     def _fit_distance(self, shape) -> float:
         """m, a camera distance at which the assembly at rest fills FILL of the frame's width and depth."""
-        lows = np.min([np.subtract(b.position, np.divide(b.size, 2)) for b in shape.bodies], axis=0)
-        highs = np.max([np.add(b.position, np.divide(b.size, 2)) for b in shape.bodies], axis=0)
+        # each body's half-extents on the ground, turned with the assembly
+        half = np.array([b.size for b in shape.bodies], dtype=float) / 2 @ np.abs(shape.rotation).T
+        centres = shape.placed_positions()
+        lows, highs = np.min(centres - half, axis=0), np.max(centres + half, axis=0)
         extent = highs - lows
         half_v = math.tan(math.radians(FOV) / 2)
         half_h = half_v * self.params.width / self.params.height

@@ -12,11 +12,11 @@ from morphbench.shapes.loader import (
     shape_from_table,
 )
 from morphbench.shapes.model import Body, Link, Shape
-from morphbench.shapes.transforms import cut, cut_apart, pieces, remove_links, shuffle
+from morphbench.shapes.transforms import cut, cut_apart, pieces, remove_links, rotate, shuffle
 
 __all__ = [
     "Body", "CustomLink", "CustomUnit", "GENERATORS", "Link", "Shape", "body_mesh", "chain", "check_shape", "components",
     "custom", "cut", "cut_apart", "draw", "export_scene", "grid", "is_connected", "lattice", "load_shape",
-    "mass_properties", "params_from_dict", "params_from_table", "pieces", "read_toml", "remove_links", "scene",
+    "mass_properties", "params_from_dict", "params_from_table", "pieces", "read_toml", "remove_links", "rotate", "scene",
     "shape_from_table", "shuffle", "site_position",
 ]

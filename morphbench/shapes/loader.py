@@ -83,8 +83,11 @@ Transforms, applied to the generated assembly in this order (morphbench.shapes.t
     shuffle = {seed = 3}                 # the units trade places by a seeded permutation; unit k keeps its learner
     cut = {link = 3}                     # remove link 3 (or several: a list); or instead
     # cut = {plane = "x", at = -0.175}   # remove every link crossing the plane x = -0.175 m
+    rotate = 90                          # degrees, counter-clockwise seen from above: the assembly is placed on the
+                                         #   ground turned about the vertical through its origin (``Shape.yaw``)
 
-A file with a cut loads as one shape whose links no longer join the pieces (its bodies where they were).
+A file with a cut loads as one shape whose links no longer join the pieces (its bodies where they were). Sites,
+links, cut planes and the heading are all given in the assembly's own frame; ``rotate`` only turns where it stands.
 
 Any mistake raises ``ConfigError`` naming the file and the key (``units[2].at``, ``links[0].unit``: arrays of tables
 are indexed from 0 in keys, as in every message of the project): an unknown key or generator, a wrong type, a value
@@ -107,7 +110,7 @@ from morphbench.shapes.checks import check_shape
 from morphbench.shapes.export import PRIMITIVES, check_mesh
 from morphbench.shapes.generators import MAX_BODIES, MAX_SITE, MAX_UNITS, CustomLink, CustomUnit, chain, custom, lattice
 from morphbench.shapes.model import Shape
-from morphbench.shapes.transforms import PLANES, cut_apart, shuffle
+from morphbench.shapes.transforms import PLANES, cut_apart, rotate, shuffle
 
 __all__ = ["GENERATORS", "MAX_UNITS", "MAX_BODIES", "chain", "load_shape", "read_toml", "shape_from_table",
            "params_from_table", "params_from_dict", "field_default"]
@@ -122,7 +125,7 @@ ASSEMBLY_KEYS = {
 TOP_KEYS = {"name", "description", "heading", "assembly", "unit", "dummy", "actuator", "units", "links", "transform"}
 UNIT_ENTRY_KEYS = {"at", "dummy", "mass", "friction", "stroke", "mesh"}
 LINK_ENTRY_KEYS = {"between", "unit", "passive"}
-TRANSFORM_KEYS = {"shuffle", "cut"}
+TRANSFORM_KEYS = {"shuffle", "cut", "rotate"}
 
 # Allowed range of each numeric parameter: (low, high, low_inclusive). Numbers not listed must be > 0, integers >= 1.
 _RANGES = {
@@ -346,7 +349,7 @@ def _custom_tables(table: dict[str, Any], source: str, base: Path) -> tuple[list
 
 
 def _transform(transform: dict[str, Any], shape: Shape, source: str) -> Shape:
-    """Apply a [transform] table: shuffle first, then cut."""
+    """Apply a [transform] table: shuffle first, then cut, then rotate."""
     _check_keys(transform, TRANSFORM_KEYS, source, prefix="transform.")
     if "shuffle" in transform:
         spec = transform["shuffle"]
@@ -385,6 +388,12 @@ def _transform(transform: dict[str, Any], shape: Shape, source: str) -> Shape:
             except ValueError as exc:
                 raise ConfigError(source, "transform.cut.at", f"a plane between body centres that cuts a link ({exc})",
                                   at) from None
+    if "rotate" in transform:
+        degrees = transform["rotate"]
+        if isinstance(degrees, bool) or not isinstance(degrees, (int, float)) or not -360 <= degrees <= 360:
+            raise ConfigError(source, "transform.rotate", "degrees in [-360, 360] (counter-clockwise seen from above)",
+                              degrees)
+        shape = rotate(shape, float(degrees))
     return shape
 
 

@@ -5,7 +5,10 @@ No simulator here: the physics package builds a world from a ``Shape``; transfor
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+
+import numpy as np
 
 from morphbench.params import ActuatorParams
 
@@ -64,6 +67,10 @@ class Shape:
     heading: tuple[float, float, float] = (1.0, 0.0, 0.0)
     """unit vector in the assembly frame: the direction the assembly is scored along (every unit's forward axis is
     its own body x axis, which at rest is the assembly's x axis)."""
+    yaw: float = 0.0
+    """rad, how the assembly is turned about the vertical through its frame's origin when it is placed on the
+    ground (counter-clockwise seen from above): bodies, links and heading keep their assembly-frame values and every
+    world places them turned by ``yaw``, the bodies' own axes with them."""
 
     @property
     def units(self) -> tuple[int, ...]:
@@ -74,3 +81,18 @@ class Shape:
     def n_units(self) -> int:
         """Number of active units."""
         return len(self.units)
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """(3, 3) the turn by ``yaw`` from the assembly frame to the ground's frame."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+    @property
+    def orientation(self) -> tuple[float, float, float, float]:
+        """Every body's orientation at rest on the ground: the quaternion (x, y, z, w) of the turn by ``yaw``."""
+        return (0.0, 0.0, math.sin(self.yaw / 2), math.cos(self.yaw / 2))
+
+    def placed_positions(self) -> np.ndarray:
+        """(n_bodies, 3) m, the bodies' centres at rest on the ground (the assembly frame turned by ``yaw``)."""
+        return np.array([body.position for body in self.bodies], dtype=float).reshape(-1, 3) @ self.rotation.T

@@ -9,6 +9,7 @@
 - ``cut(shape, link=..., plane=...)``: remove links and return the connected pieces, each a shape of its own.
 - ``cut_apart(shape, ...)``: the same cut as one shape (bodies where they were, the cut links gone, so the pieces are
   no longer joined) and its pieces: what a morphology file's ``[transform] cut`` loads as.
+- ``rotate(shape, degrees)``: the same assembly placed on the ground turned about the vertical (``Shape.yaw``).
 
 Links are named here by their 0-based index into ``shape.links`` (as ``World.cut``); morphology files and run events
 number them from 1.
@@ -17,6 +18,7 @@ number them from 1.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Iterable
 
 import numpy as np
@@ -56,6 +58,14 @@ def shuffle(shape: Shape, seed: int) -> Shape:
         links.append(Link(front=at(link.front), rear=at(link.rear), unit=driver,
                           stroke=None if driver is None else stroke.get(driver)))
     return dataclasses.replace(shape, bodies=tuple(bodies), links=tuple(links))
+
+
+def rotate(shape: Shape, degrees: float) -> Shape:
+    """The shape placed turned by ``degrees`` more about the vertical, counter-clockwise seen from above; its
+    bodies, links and heading are unchanged in its own frame."""
+    if not math.isfinite(degrees):
+        raise ValueError(f"degrees must be finite, got {degrees!r}")
+    return dataclasses.replace(shape, yaw=shape.yaw + math.radians(degrees))
 
 
 def crossing_links(shape: Shape, plane: str, at: float) -> list[int]:
