@@ -50,7 +50,8 @@ def _parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="morphbench", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    run = sub.add_parser("run", help="learn a gait on a shape and write records, summary and a learning curve")
+    run = sub.add_parser("run", help="learn a gait on a shape and write records, summary, a learning curve and the "
+                                     "trajectory")
     run.add_argument("config", metavar="FILE",
                      help="a morphology file (shapes/chain-3.toml) or a run configuration (examples/s6-damage.toml)")
     # Options default to None: given ones override the file, the others leave it as it is.
@@ -158,14 +159,16 @@ def _cmd_run(args) -> int:
 
         records = run(config, progress, recorder)
     records.write(out)
-    plots.learning_curve(records.steps(), records.units(), out / "learning_curve.png",
-                         title=f"{name}, {learner_name}, seed {config.seed}")
+    title = f"{name}, {learner_name}, seed {config.seed}"
+    plots.learning_curve(records.steps(), records.units(), out / "learning_curve.png", title=title)
+    plots.trajectory_figure(records.steps(), out / "trajectory.png", title=title)
     summary = records.summary()
     print(f"{name}: final Ubar {summary['final_ubar']:+.2f} mm/cycle (true {summary['final_ubar_true']:+.2f}), "
           f"mean acceptance {summary['mean_acceptance']:.2f}, {summary['wall_time_s']:.1f} s wall time")
     if len(summary["final_ubar_by_piece"]) > 1:
         print("  pieces: " + ", ".join(f"{k}: {v:+.2f}" for k, v in summary["final_ubar_by_piece"].items()))
-    print(f"records in {out}/ (units.parquet, steps.parquet, pieces.parquet, summary.json, learning_curve.png)")
+    print(f"records in {out}/ (units.parquet, steps.parquet, pieces.parquet, summary.json, learning_curve.png, "
+          "trajectory.png)")
     if args.video:
         print(f"video in {args.video}")
     return 0

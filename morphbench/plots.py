@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import matplotlib
@@ -32,6 +33,41 @@ def learning_curve(steps: pd.DataFrame, units: pd.DataFrame, path: str | Path, t
     if units.unit.nunique() <= 8:
         ax_p.legend(loc="upper right", fontsize="small", markerscale=4)
     fig.suptitle(title)
+    return _save(fig, path)
+
+
+def trajectory_figure(tracks: pd.DataFrame | Mapping[str, pd.DataFrame], path: str | Path, title: str = "") -> Path:
+    """The assembly's centroid on the ground (steps.parquet's ``x_m``, ``y_m``, in mm, axes to the same scale), start
+    marked by a circle and end by a dot with an arrow along the final ``heading_rad``. ``tracks`` is one run's steps
+    table, or label -> steps table: one colour per label, one line per run (``run_id``) of its table."""
+    groups = tracks.items() if isinstance(tracks, Mapping) else [(None, tracks)]
+    runs = [(i, label, run) for i, (label, table) in enumerate(groups)
+            for _, run in (table.groupby("run_id", sort=False) if "run_id" in table else [(None, table)])]
+    runs = [(i, label, run.sort_values("step")) for i, label, run in runs if np.isfinite(run.x_m).any()]
+    every_point = pd.concat([run[["x_m", "y_m"]] for _, _, run in runs]) * 1000.0
+    arrow = 0.08 * max(float(np.nanmax(every_point.max() - every_point.min())), 1.0)  # mm, visible on a short track
+    fig, ax = plt.subplots(figsize=(6.5, 5.5))
+    labelled = set()
+    for i, label, run in runs:
+        colour = f"C{i % 10}"
+        x, y = run.x_m.to_numpy() * 1000.0, run.y_m.to_numpy() * 1000.0
+        ax.plot(x, y, lw=1, color=colour, label=label if label not in labelled else None)
+        labelled.add(label)
+        ax.plot(x[0], y[0], "o", mfc="none", color=colour, ms=6)
+        ax.plot(x[-1], y[-1], "o", color=colour, ms=4)
+        heading = run.heading_rad.iloc[-1]
+        if np.isfinite(heading):
+            tip = (x[-1] + arrow * np.cos(heading), y[-1] + arrow * np.sin(heading))
+            ax.annotate("", xy=tip, xytext=(x[-1], y[-1]), arrowprops={"arrowstyle": "->", "color": colour})
+            ax.update_datalim([tip])  # an annotation does not widen the axes by itself
+    ax.autoscale_view()
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    if len(labelled - {None}) and len(labelled) <= 12:
+        ax.legend(fontsize="x-small")
+    ax.set_title((f"{title}\n" if title else "") + "centroid: circle at the start, dot at the end, arrow the final "
+                 "heading", fontsize="small")
     return _save(fig, path)
 
 

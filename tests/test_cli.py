@@ -22,10 +22,11 @@ from morphbench.params import LearnerParams
 SHAPES = Path(__file__).resolve().parents[1] / "shapes"
 CHAIN2 = str(SHAPES / "chain-2.toml")
 CHAIN3 = str(SHAPES / "chain-3.toml")
-RUN_FILES = {"units.parquet", "steps.parquet", "pieces.parquet", "summary.json", "learning_curve.png"}
+RUN_FILES = {"units.parquet", "steps.parquet", "pieces.parquet", "summary.json", "learning_curve.png",
+             "trajectory.png"}
 UNIT_COLUMNS = ["step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true",
                 "accepted", "x_m", "y_m", "heading_rad"]  # records.py docs
-STEP_COLUMNS = ["step", "time_s", "ubar", "ubar_true", "acceptance", "event"]
+STEP_COLUMNS = ["step", "time_s", "ubar", "ubar_true", "acceptance", "event", "x_m", "y_m", "heading_rad", "u_heading"]
 
 
 def run_cli(capsys, *argv: str) -> tuple[int, str, str]:

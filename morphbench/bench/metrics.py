@@ -9,6 +9,8 @@ Per condition (a run's configuration without its seed), over its seeds:
   over the runs that reach it, and the fraction that do); not defined (NaN) when U_eq <= 0 or the fit found no
   plateau within the window (``plateau`` False);
 - acceptance at the end (mean over the last 10% of steps) and over the whole run;
+- the assembly's velocity along its heading (each run's ``final_u_heading``) and its turning rate (each run's
+  ``turning_rate_deg_per_cycle``, ``turning_rate``), mean and std over the finished runs that have them;
 - the best Ubar of the suite's scans of the same shape (same shape content, same physics, same ground: the
   environment without its noise) and the fraction of it that learning reached (final Ubar / scan best);
 - for conditions with events, recovery from the first one: the steps each run takes, from the event's step, to
@@ -26,6 +28,7 @@ import math
 import numpy as np
 import pandas as pd
 
+from morphbench.bench.store import SUMMARY_COLUMNS
 from morphbench.experiment.records import FINAL_FRACTION
 
 THRESHOLD = 0.8
@@ -178,6 +181,9 @@ def condition_metrics(steps: pd.DataFrame, runs: pd.DataFrame, scans: pd.DataFra
         acceptance = mine.groupby("step").acceptance.mean()
         row["acceptance_final"] = final_value(acceptance.index, acceptance.to_numpy())
         row["acceptance_mean"] = float(acceptance[acceptance.index > 0].mean()) if len(acceptance) else math.nan
+        done = members[members.status == "done"]
+        row["final_u_heading"], row["final_u_heading_std"] = _over_runs(done, "final_u_heading")
+        row["turning_rate"], row["turning_rate_std"] = _over_runs(done, "turning_rate_deg_per_cycle")
         row.update(_recovery(per_run, column))
         key = (row.get("shape_id"), row.get("physics"), row.get("environment_id", _DEFAULT_GROUND))
         row["scan_best_ubar"] = best.get(key, math.nan)
@@ -209,6 +215,14 @@ def _recovery(per_run: list[pd.DataFrame], column: str) -> dict[str, float]:
             "recovery_steps_std": _std(finite), "recovered_fraction": float(len(finite) / len(defined))}
 
 
+def _over_runs(runs: pd.DataFrame, column: str) -> tuple[float, float]:
+    """Mean and std of a summary column of the runs table over the runs where it is finite (NaN, NaN without
+    any: a run stored before the column existed has NaN there, a runs table built by hand may lack it)."""
+    values = runs[column].to_numpy(dtype=float) if column in runs else np.array([])
+    values = values[np.isfinite(values)]
+    return _mean(values), _std(values)
+
+
 def scan_best(scans: pd.DataFrame) -> dict[tuple, float]:
     """The highest Ubar of any scan point, per (shape_id, physics, environment_id) (scans of results written before
     scans had environments: the default ground)."""
@@ -229,8 +243,7 @@ def _default_ground() -> str:
 _DEFAULT_GROUND = _default_ground()
 
 
-_RUN_ONLY = {"run_id", "condition_id", "experiments", "seed", "status", "error", "final_ubar", "final_ubar_true",
-             "mean_acceptance", "sensor_error", "wall_time_s"}
+_RUN_ONLY = {"run_id", "condition_id", "experiments", "seed", "status", "error", *SUMMARY_COLUMNS, "wall_time_s"}
 
 
 def _qnames() -> list[str]:

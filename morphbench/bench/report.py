@@ -7,6 +7,8 @@ interrupted bench, reporting the missing runs), computes ``curves.parquet`` and 
   exponential fit dashed and the scan's best Ubar dotted, one panel per condition;
 - ``<experiment>-acceptance.png``: mean acceptance vs learning step (10-step running mean), one line per condition;
 - ``<experiment>-scaling.png`` when the experiment spans several numbers of units: U_eq and steps to 0.8 U_eq vs N;
+- ``<experiment>-trajectories.png``: every run's centroid track on the ground, one colour per condition (when the
+  runs recorded one: runs stored before steps.parquet had ``x_m`` are left out);
 and ``scan-<name>.png`` per scan (a curve for 2 units, a heat map for 3, a histogram beyond). ``DIR/report.md``
 holds the tables of metrics, the figures and the failed runs with their errors.
 """
@@ -63,13 +65,16 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
               "over the best Ubar of the suite's scans of the same shape and ground. With events: the step of the "
               f"first one, and the steps runs take from it to regain {M.RECOVERY_FRACTION:g} of their mean Ubar over "
               f"the {M.RECOVERY_WINDOW} steps before it (mean +- std over the runs that do, 'never' if none does), "
-              "and the fraction that do.", ""]
+              "and the fraction that do. U along heading: the assembly centroid's velocity along its heading "
+              "(mm/cycle, over the same last steps as final Ubar; pump cycles between steps include the discarded "
+              "ones); turning rate: slope of its heading over time (deg/cycle, positive counter-clockwise seen from "
+              "above); both mean +- std over seeds.", ""]
     if n_missing:
         lines += [f"**{n_missing} runs have no results yet**: the bench was interrupted; run it again with the same "
                   "--out to finish.", ""]
 
     for experiment in plan["experiments"]:
-        lines += _experiment_section(experiment, metrics, curves, figures)
+        lines += _experiment_section(experiment, metrics, curves, steps, figures)
     if plan["scans"]:
         lines += ["## Scans", ""]
         lines += _scan_section(plan, scans, figures)
@@ -87,7 +92,8 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
     return path
 
 
-def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.DataFrame, figures: Path) -> list[str]:
+def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.DataFrame, steps: pd.DataFrame,
+                        figures: Path) -> list[str]:
     name = experiment["name"]
     lines = [f"## {name}", ""]
     if experiment.get("description"):
@@ -101,7 +107,7 @@ def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.Data
         lines += ["Fixed: " + ", ".join(f"{c} = {_fmt(first[c])}" for c in fixed if c in mine) + ".", ""]
     with_events = "recovery_step" in mine and bool(np.isfinite(mine.recovery_step.astype(float)).any())
     header = [*varying, "runs", "final Ubar", "U_eq", "U_0", "k_0", f"steps to {M.THRESHOLD:g} U_eq", "reached",
-              "acceptance (end)", "of scan best"]
+              "acceptance (end)", "of scan best", "U along heading", "turning rate (deg/cycle)"]
     if with_events:
         header += ["event at", f"steps to regain {M.RECOVERY_FRACTION:g} of before", "recovered"]
     lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
@@ -112,7 +118,8 @@ def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.Data
             runs, _pm(row.final_ubar, row.final_ubar_std), "no plateau" if not row.plateau and np.isfinite(row.u_eq) else _fmt(row.u_eq, 2),
             _fmt(row.u_0, 2), _fmt(row.k_0, 1) if row.plateau else "-",
             _pm(row.steps_to_threshold, row.steps_to_threshold_std, 1),
-            _fmt(row.reached_fraction, 2), _fmt(row.acceptance_final, 2), _fmt(row.learned_fraction, 2)]
+            _fmt(row.reached_fraction, 2), _fmt(row.acceptance_final, 2), _fmt(row.learned_fraction, 2),
+            _pm(row.final_u_heading, row.final_u_heading_std), _pm(row.turning_rate, row.turning_rate_std, 3)]
         if with_events:
             never = row.recovered_fraction == 0
             cells += [str(int(row.recovery_step)) if np.isfinite(row.recovery_step) else "-",
@@ -129,6 +136,11 @@ def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.Data
     if mine.n_units.nunique() > 1:
         scaling = _scaling_figure(name, mine, varying, figures / f"{name}-scaling.png")
         lines += [f"![scaling with the number of units](figures/{scaling.name})", ""]
+    tracks = {labels[c]: steps[steps.condition_id == c] for c in labels} if "x_m" in steps else {}
+    if any(table.x_m.notna().any() for table in tracks.values()):
+        path = plots.trajectory_figure(tracks, figures / f"{name}-trajectories.png",
+                                       title=f"{name}: trajectories of the runs")
+        lines += [f"![trajectories](figures/{path.name})", ""]
     return lines
 
 

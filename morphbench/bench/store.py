@@ -8,8 +8,10 @@ Layout of ``DIR``::
     scans/<part_id>/     one finished part of a scan: points.parquet (dphi_2.., ubar), result.json
     runs.parquet         one row per run of the suite: run_id, condition_id, experiments, condition columns, seed,
                          status ('done' | 'failed' | 'missing'), error, final_ubar, final_ubar_true,
-                         mean_acceptance, sensor_error, wall_time_s
+                         mean_acceptance, sensor_error, final_u_heading, turning_rate_deg_per_cycle (NaN for a
+                         run stored before a summary value existed), wall_time_s
     steps.parquet        every finished run's steps.parquet rows, with run_id, condition_id, condition columns, seed
+                         (a run stored before a column existed has NaN in it)
     units.parquet        every finished run's units.parquet rows, with run_id
     scans.parquet        every scan point: scan_id, scan columns (scan, shape, resolution, ...), dphi_2.., ubar
     jobs.parquet         one row per job: job_id, kind, status, error, wall_time_s
@@ -34,13 +36,13 @@ from typing import Any
 import pandas as pd
 
 from morphbench.errors import ConfigError
-from morphbench.experiment.records import atomic_write
+from morphbench.experiment.records import STEP_COLUMNS, atomic_write
 
 KIND_DIRS = {"run": "runs", "scan": "scans"}
 RESULT = "result.json"
 PLAN = "plan.json"
-SUMMARY_COLUMNS = ("final_ubar", "final_ubar_true", "mean_acceptance", "sensor_error")
-RUN_STEP_COLUMNS = ("step", "time_s", "ubar", "ubar_true", "acceptance", "event")
+SUMMARY_COLUMNS = ("final_ubar", "final_ubar_true", "mean_acceptance", "sensor_error", "final_u_heading",
+                   "turning_rate_deg_per_cycle")
 
 
 class Store:
@@ -205,7 +207,7 @@ def _run_columns(plan: dict) -> list[str]:
 
 
 def _step_columns(plan: dict) -> list[str]:
-    return ["run_id", "condition_id", *_condition_keys(plan), "seed", *RUN_STEP_COLUMNS]
+    return ["run_id", "condition_id", *_condition_keys(plan), "seed", *STEP_COLUMNS]
 
 
 def _prefix(table: pd.DataFrame, columns: dict[str, Any]) -> pd.DataFrame:

@@ -8,14 +8,22 @@ A run directory holds:
   dead unit), ``u_true`` (mm/cycle, the unit's true displacement along its forward axis per cycle), ``accepted``
   (whether the learner kept the tried phase), ``x_m``, ``y_m`` (m, where the unit's centre is on the ground at the end
   of the step: start and end positions, 2-D trajectories), ``heading_rad`` (the direction of the unit's forward axis
-  on the ground, from +x towards +y, in (-pi, pi]; ``turning_rate`` unwraps it).
+  on the ground, from +x towards +y, in (-pi, pi]).
 - ``steps.parquet``: one row per learning step: ``step``, ``time_s`` (simulated time at the end of the step),
   ``ubar`` (mean ``u_measured`` over the units that are not dead), ``ubar_true`` (the same units' true velocities),
-  ``acceptance`` (fraction of those units that accepted) and ``event`` (the events applied at the start of the step,
-  '' if none).
+  ``acceptance`` (fraction of those units that accepted), ``event`` (the events applied at the start of the step,
+  '' if none), and the assembly's track on the ground: ``x_m``, ``y_m`` (m, the centroid of all units' centres at the
+  end of the step), ``heading_rad`` (the assembly's heading: the angle of the shape's ``heading`` in the ground plane
+  plus the circular mean of the units' ``heading_rad``, unwrapped over the steps so that a turning assembly's heading
+  runs on past pi; NaN when the shape's heading has no ground component, e.g. a stack scored along z) and
+  ``u_heading`` (mm/cycle, the centroid's displacement since the previous step along the heading at the previous
+  step, per pump cycle in between; NaN at step 0 and without a heading). ``turning_rate`` is the slope
+  of ``heading_rad``.
 - ``pieces.parquet``: one row per learning step and piece: ``step``, ``piece``, ``n_units``, ``ubar``, ``ubar_true``:
   after a cut, each piece is a robot of its own and is scored on its own.
-- ``summary.json``: the full configuration, seed, final Ubar, mean acceptance, sensor error and wall time.
+- ``summary.json``: the full configuration, seed, final Ubar, mean acceptance, sensor error, wall time, the final
+  ``u_heading`` (``final_u_heading``, over the same final steps as final Ubar) and the turning rate
+  (``turning_rate_deg_per_cycle``: degrees per pump cycle over the learning steps).
 Read them with ``pandas.read_parquet``. Every file is written to a temporary name and renamed, so a directory never
 holds a half-written file.
 """
@@ -23,6 +31,7 @@ holds a half-written file.
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 from typing import Any
@@ -32,9 +41,10 @@ import pandas as pd
 
 UNIT_COLUMNS = ("step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true", "accepted",
                 "x_m", "y_m", "heading_rad")
-STEP_COLUMNS = ("step", "time_s", "ubar", "ubar_true", "acceptance", "event")
+STEP_COLUMNS = ("step", "time_s", "ubar", "ubar_true", "acceptance", "event", "x_m", "y_m", "heading_rad", "u_heading")
 PIECE_COLUMNS = ("step", "piece", "n_units", "ubar", "ubar_true")
 FINAL_FRACTION = 0.1  # final Ubar is the mean over the last 10% of learning steps (at least one)
+NO_GROUND_HEADING = 1e-9  # a shape heading whose ground-plane part is shorter than this has no heading on the ground
 
 
 class RunRecords:
@@ -80,12 +90,32 @@ class RunRecords:
 
     def steps(self) -> pd.DataFrame:
         """Per step (see the module docstring). Dead units (NaN measurement) are left out of the means."""
-        scored = self._scored(self.units(), ["step"])
+        units = self.units()
         table = pd.DataFrame({"step": np.asarray(self._steps["step"], dtype=np.int64),
                               "time_s": np.asarray(self._steps["time_s"], dtype=float)})
-        table = table.merge(scored, on="step", how="left")
+        table = table.merge(self._scored(units, ["step"]), on="step", how="left")
         table["event"] = self._steps["event"]
+        table = table.merge(self._track(units, table.time_s.to_numpy()), on="step", how="left")
         return table[list(STEP_COLUMNS)]
+
+    def _track(self, units: pd.DataFrame, time_s: np.ndarray) -> pd.DataFrame:
+        """Per step (``time_s`` in step order), the assembly's centroid, heading and velocity along it (see the
+        module docstring)."""
+        angle = units.heading_rad.to_numpy(dtype=float)
+        track = (units.assign(cos=np.cos(angle), sin=np.sin(angle))
+                 .groupby("step", sort=True)[["x_m", "y_m", "cos", "sin"]].mean().reset_index())
+        h_x, h_y, _ = self.config.shape.heading
+        if np.hypot(h_x, h_y) < NO_GROUND_HEADING:
+            heading = np.full(len(track), np.nan)
+        else:
+            heading = np.unwrap(np.arctan2(h_y, h_x) + np.arctan2(track.sin.to_numpy(), track.cos.to_numpy()))
+        cycles = np.diff(time_s) / self.config.shape.actuator.cycle_time
+        dx, dy = np.diff(track.x_m.to_numpy()), np.diff(track.y_m.to_numpy())
+        along = dx * np.cos(heading[:-1]) + dy * np.sin(heading[:-1])
+        track["heading_rad"] = heading
+        track["u_heading"] = np.nan  # at step 0: no previous step
+        track.loc[1:, "u_heading"] = 1000.0 * along / cycles
+        return track[["step", "x_m", "y_m", "heading_rad", "u_heading"]]
 
     def pieces(self) -> pd.DataFrame:
         """Per step and piece (see the module docstring)."""
@@ -115,6 +145,8 @@ class RunRecords:
             "final_ubar": float(learning.ubar.tail(n_final).mean()) if len(learning) else float("nan"),
             "final_ubar_true": float(learning.ubar_true.tail(n_final).mean()) if len(learning) else float("nan"),
             "mean_acceptance": float(learning.acceptance.mean()) if len(learning) else float("nan"),
+            "final_u_heading": float(learning.u_heading.tail(n_final).mean()) if len(learning) else float("nan"),
+            "turning_rate_deg_per_cycle": turning_rate(steps, self.config.shape.actuator.cycle_time),
             "final_ubar_by_piece": self._final_by_piece(n_final),
             "events": [event for event in steps.event if event],
             "sensor_error": float((units.u_measured - units.u_true).abs().mean()),
@@ -149,3 +181,18 @@ def atomic_write(path: Path, write) -> None:
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+def turning_rate(steps: pd.DataFrame, cycle_time: float) -> float:
+    """Degrees per pump cycle: the least-squares slope of a run's unwrapped ``heading_rad`` (steps.parquet) against
+    time in cycles (``time_s / cycle_time``) over the learning steps (step 0 excluded); NaN with fewer than two finite
+    points or no time between them."""
+    learning = steps[steps.step > 0]
+    t = learning.time_s.to_numpy(dtype=float) / cycle_time
+    heading = learning.heading_rad.to_numpy(dtype=float)
+    keep = np.isfinite(t) & np.isfinite(heading)
+    t, heading = t[keep], heading[keep]
+    if len(t) < 2 or np.ptp(t) == 0:
+        return math.nan
+    t = t - t.mean()
+    return math.degrees(float(t @ (heading - heading.mean()) / (t @ t)))
