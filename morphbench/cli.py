@@ -55,7 +55,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("config", metavar="FILE",
                      help="a morphology file (shapes/chain-3.toml) or a run configuration (examples/s6-damage.toml)")
     # Options default to None: given ones override the file, the others leave it as it is.
-    run.add_argument("--learner", help="thermal, flaky or a plug-in package.module:Class")
+    run.add_argument("--learner", help="thermal, flaky, random (no learning) or a plug-in package.module:Class")
     run.add_argument("--steps", type=_number(0, low_inclusive=True, integer=True),
                      help="learning steps after the initial measurement (default 100)")
     learner, sensor = LearnerParams(), SensorParams()

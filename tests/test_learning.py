@@ -6,6 +6,7 @@ import inspect
 import math
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -373,7 +374,7 @@ BAD_MODULES = {
 @pytest.mark.parametrize(
     "spec, expected",
     [
-        ("metropolis", "'thermal' or 'flaky'"),
+        ("metropolis", "'thermal', 'flaky' or 'random'"),
         ("mb_shapes", "package.module:ClassName"),  # no colon
         ("mb_shapes:", "package.module:ClassName"),
         (":NoUpdate", "package.module:ClassName"),
@@ -448,3 +449,32 @@ def test_thermal_learner_climbs_a_noiseless_hill():
     # at T = 0.2 the stationary spread around the peak is about 0.03, so a few seeds may sit just outside 0.05
     assert sum(d < 0.05 for d in final) >= 14
     assert max(final) < 0.1
+
+
+def test_the_random_baseline_runs_a_fresh_uniform_phase_every_step_and_keeps_it():
+    learner = LEARNERS["random"](LearnerParams(), np.random.default_rng(5))
+    tried = []
+    for velocity in np.linspace(-5, 5, 2000):
+        tried.append(learner.propose())
+        assert learner.update(float(velocity)) is True and learner.phase == tried[-1]
+    tried = np.array(tried)
+    assert tried.min() >= 0 and tried.max() < 1
+    assert np.histogram(tried, bins=10, range=(0, 1))[0].min() > 150  # about 200 per tenth
+    first, second = (LEARNERS["random"](LearnerParams(), np.random.default_rng(9)) for _ in range(2))
+    assert [first.propose() for _ in range(5)] == [second.propose() for _ in range(5)]  # its own stream only
+
+
+def test_thermal_beats_random_phase_changes_on_a_chain():
+    from morphbench.experiment import RunConfig, run
+    from morphbench.params import QUASISTATIC_PHYSICS, SensorParams
+    from morphbench.shapes import load_shape
+
+    shape = load_shape(Path(__file__).resolve().parent.parent / "shapes" / "chain-2.toml")
+
+    def final(learner):
+        return np.mean([run(RunConfig(shape=shape, learner=learner, physics=QUASISTATIC_PHYSICS, steps=60, seed=seed,
+                                      sensor=SensorParams(kind="ideal"))).summary()["final_ubar_true"]
+                        for seed in range(4)])
+
+    thermal, random = final("thermal"), final("random")
+    assert thermal > 2.0 and thermal > random + 1.5

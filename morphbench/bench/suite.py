@@ -13,7 +13,7 @@ A suite file is TOML::
     name = "S4"                         #   and every condition is run once per seed
     description = "Thermal vs Flaky with measurement noise"
     shapes = ["../shapes/chain-3.toml"] # morphology files, relative to the suite file
-    learners = ["thermal", "flaky"]     # thermal, flaky or a plug-in package.module:Class
+    learners = ["thermal", "flaky"]     # thermal, flaky, random or a plug-in package.module:Class
     noise = [0.0, 0.5, 1.0]             # mm/cycle, Gaussian noise on each measured velocity
     seeds = 10                          # seeds 0..9, or a list of distinct seeds: [0, 3, 7]
     steps = 300                         # learning steps (a number or a list of numbers)

@@ -5,7 +5,7 @@
     steps = 600
     seed = 1
 
-    [learner]                 # name: thermal | flaky | package.module:Class, and any LearnerParams field
+    [learner]                 # name: thermal | flaky | random | package.module:Class, and any LearnerParams field
     name = "thermal"
     temperature = 0.5
 
@@ -75,7 +75,7 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path) -> Run
     learner_table = dict(_table(table, "learner", source))
     learner = learner_table.pop("name", "thermal")
     if not isinstance(learner, str):
-        raise ConfigError(source, "learner.name", "thermal, flaky or package.module:Class", learner)
+        raise ConfigError(source, "learner.name", "thermal, flaky, random or package.module:Class", learner)
     load_learner_class(learner)
     sensor = params_from_table(SensorParams, _table(table, "sensor", source), source, "sensor")
     if sensor.kind not in SENSOR_KINDS:

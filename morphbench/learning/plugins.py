@@ -1,6 +1,6 @@
 """Choosing a learner by name (``--learner``), per-unit random streams, and building one learner per unit.
 
-``--learner`` takes ``thermal`` or ``flaky`` (any case), or a plug-in class as ``package.module:ClassName``; the
+``--learner`` takes ``thermal``, ``flaky`` or ``random`` (the no-learning baseline; any case), or a plug-in class as ``package.module:ClassName``; the
 module is imported with ``importlib``, so its directory must be on ``sys.path`` (e.g. via ``PYTHONPATH``).
 
 The plug-in interface. A plug-in need not subclass ``morphbench.learning.Learner``, but it must:
@@ -46,16 +46,17 @@ import numpy as np
 
 from morphbench.errors import ConfigError
 from morphbench.learning.base import Learner
+from morphbench.learning.baselines import RandomLearner
 from morphbench.learning.metropolis import FlakyLearner, ThermalLearner
 from morphbench.params import LearnerParams
 
-LEARNERS: dict[str, type[Learner]] = {"thermal": ThermalLearner, "flaky": FlakyLearner}
+LEARNERS: dict[str, type[Learner]] = {"thermal": ThermalLearner, "flaky": FlakyLearner, "random": RandomLearner}
 
 LEARNER_STREAM = 0
 """SeedSequence stream id of the learners (the run loop draws measurement noise from stream 1)."""
 
 _SOURCE = "--learner"
-_SPEC_FORM = "'thermal' or 'flaky' (any case), or a plug-in class as 'package.module:ClassName'"
+_SPEC_FORM = "'thermal', 'flaky' or 'random' (any case), or a plug-in class as 'package.module:ClassName'"
 _METHODS = ("propose", "update")
 
 
