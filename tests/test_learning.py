@@ -16,6 +16,7 @@ from morphbench.learning import (
     LEARNERS,
     FlakyLearner,
     Learner,
+    RandomLearner,
     ThermalLearner,
     load_learner_class,
     make_learners,
@@ -294,10 +295,11 @@ def docstring_example():
     return textwrap.dedent("\n".join(block))
 
 
-@pytest.mark.parametrize("spec, cls", [("thermal", ThermalLearner), ("FLAKY", FlakyLearner), (" Thermal ", ThermalLearner)])
+@pytest.mark.parametrize("spec, cls", [("thermal", ThermalLearner), ("FLAKY", FlakyLearner), (" Thermal ", ThermalLearner),
+                                       ("random", RandomLearner)])
 def test_builtin_learners_by_name(spec, cls):
     assert load_learner_class(spec) is cls
-    assert LEARNERS == {"thermal": ThermalLearner, "flaky": FlakyLearner}
+    assert LEARNERS == {"thermal": ThermalLearner, "flaky": FlakyLearner, "random": RandomLearner}
 
 
 def test_documented_plugin_example_loads_and_runs(plugin_module):
