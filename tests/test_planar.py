@@ -202,3 +202,38 @@ def test_a_run_records_each_units_heading():
     units = records.units()
     assert np.all(np.isfinite(units.heading_rad)) and np.all(np.abs(units.heading_rad) <= np.pi)
     assert units.heading_rad.abs().max() > 0  # the rows' random phases turned it
+
+
+def row_lead(shape, physics, phases, cycles=10):
+    """m, how far the first half of the bodies (row 1) has moved ahead of the rest (row 2) along the grid's heading
+    (the grid turns: the rows' offset is measured in its own frame), from rest."""
+    with make_world(shape, physics) as world:
+        start, _ = world.poses()
+        world.set_phases(phases)
+        world.advance(world.ticks_in(cycles * shape.actuator.cycle_time))
+        end, turn = world.poses()
+    heading = np.mean(2 * np.arctan2(turn[:, 2], turn[:, 3]))
+    along = (end - end.mean(axis=0))[:, :2] @ [np.cos(heading), np.sin(heading)]
+    moved = along - (start[:, 0] - start[:, 0].mean())
+    half = len(shape.bodies) // 2
+    return float(moved[:half].mean() - moved[half:].mean())
+
+
+def test_a_loop_deforms_as_far_as_its_rungs_shear_stiffness_allows():
+    """Rows joined by soft rungs, running a forward and a backward gait: they stay together but offset, the rungs'
+    shear force carrying the drag. Quasi-static estimate: that force depends on the gaits only, not on the rungs'
+    stiffness (so the offset falls as 1 / k_s), and it cannot exceed a row's friction limit. PyBullet agrees."""
+    from morphbench.params import FAST_PHYSICS
+
+    gaits = [0.0, 0.4, 0.0, 0.6]
+    forces = []
+    for k in (30.0, 100.0):
+        shape = grid(2, 2, actuator={"shear_stiffness": k})
+        rungs = sum(1 for link in shape.links if link.unit is None)
+        lead = row_lead(shape, QUASISTATIC_PHYSICS, gaits)
+        assert lead > 0  # the forward row leads
+        forces.append(rungs * k * lead)
+    row_friction = sum(b.friction * b.mass * GRAVITY for b in shape.bodies[:3])
+    assert forces[1] == pytest.approx(forces[0], rel=0.1)
+    assert 0.02 * row_friction < forces[0] < row_friction
+    assert row_lead(shape, FAST_PHYSICS, gaits) == pytest.approx(row_lead(shape, QUASISTATIC_PHYSICS, gaits), rel=0.15)
