@@ -33,9 +33,7 @@ from morphbench.physics.camera import CameraGround
 from morphbench.sensing import GroundTexture, IdealSensor, OpticalSensor, Sensor
 from morphbench.sensing.base import forward_axes
 from morphbench.shapes import Shape, load_shape, params_from_dict
-
-NOISE_STREAM = 1  # SeedSequence([seed, NOISE_STREAM, unit]) is unit's measurement-noise stream; 0 is its learner's
-OPTICAL_STREAM = 5  # SeedSequence([seed, OPTICAL_STREAM]): the optical sensors' image noise
+from morphbench.streams import NOISE_STREAM, OPTICAL_STREAM
 
 
 @dataclass(frozen=True, kw_only=True)
