@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from morphbench.errors import ConfigError
-from morphbench.experiment import Event, RunConfig, load_run_config, parse_events, run, run_config_from_table
+from morphbench.experiment import RunConfig, load_run_config, parse_events, run, run_config_from_table
+from morphbench.experiment.events import CutEvent, DamageEvent, FrictionEvent, NoiseEvent, ShuffleEvent
 from morphbench.experiment.scan import velocity_at
 from morphbench.params import EnvironmentParams, FrictionFieldParams, SensorParams
 from morphbench.physics import World
@@ -101,9 +102,8 @@ def test_a_friction_drop_changes_the_landscape():
 
 
 def test_every_event_is_recorded_at_its_step_and_acts():
-    events = (Event(step=2, kind="friction", scale=0.8), Event(step=3, kind="noise", sigma=0.5),
-              Event(step=3, kind="damage", unit=3, mode="dead"), Event(step=4, kind="shuffle", seed=5),
-              Event(step=5, kind="cut", link=1))
+    events = (FrictionEvent(step=2, scale=0.8), NoiseEvent(step=3, sigma=0.5), DamageEvent(step=3, unit=3, mode="dead"),
+              ShuffleEvent(step=4, seed=5), CutEvent(step=5, link=1))
     records = run(RunConfig(shape=CHAIN_3, steps=6, seed=2, events=events, sensor=SensorParams(kind="ideal")))
     steps, units = records.steps(), records.units()
     assert steps.event[2] == "friction scale=0.8"

@@ -80,11 +80,11 @@ def test_a_thermal_chain_learns_to_move_forward(sensor):
 def test_recorded_positions_follow_the_measured_motion():
     """Each unit's recorded ground position moves by its true velocity times the cycles of the step, also after a
     shuffle has moved units to other places."""
-    from morphbench.experiment import Event
+    from morphbench.experiment.events import ShuffleEvent
 
     lp = LearnerParams(discard_cycles=0)  # every cycle of a step is measured
     units = run(RunConfig(shape=CHAIN_3, steps=6, seed=4, sensor=SensorParams(kind="ideal"), learner_params=lp,
-                          events=(Event(step=3, kind="shuffle", seed=1),))).units()
+                          events=(ShuffleEvent(step=3, seed=1),))).units()
     x = units.pivot(index="step", columns="unit", values="x_m")
     u = units.pivot(index="step", columns="unit", values="u_true")
     moved = x.diff().iloc[1:] * 1000 / lp.cycles_per_step

@@ -8,50 +8,165 @@
 | cut | link | link ``link`` (1-based, in the shape's order; for a chain, unit k's bellows) is cut; each piece is scored on its own |
 | noise | sigma | measurement noise becomes ``sigma`` mm/cycle |
 
-Each applied event is recorded in ``steps.parquet`` (column ``event``) at the step it happened.
+One frozen dataclass per kind: ``parse`` reads its fields from a TOML table, ``apply(world, state)`` is what the run
+loop does at its step, ``describe()`` is recorded in ``steps.parquet`` (column ``event``) at the step it happened.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
+import dataclasses
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from morphbench.errors import ConfigError, require_integer, require_number
 from morphbench.params import DAMAGE_MODES
+from morphbench.shapes.transforms import shuffle_order
 
-EVENT_FIELDS = {
-    "friction": ("scale",),
-    "damage": ("unit", "mode"),
-    "shuffle": ("seed",),
-    "cut": ("link",),
-    "noise": ("sigma",),
-}
+if TYPE_CHECKING:  # configs and suites parse events without loading the simulator
+    from morphbench.physics import World
+
+
+@dataclass
+class RunState:
+    """What events change during a run, besides the world."""
+
+    order: np.ndarray
+    """``order[p]``: the unit (0-based) at position p (0 = front); units keep their identity when shuffled."""
+    damage: list[str]
+    """per unit: '' (healthy) or one of DAMAGE_MODES."""
+    noise: float
+    """current measurement noise, mm/cycle."""
+
+    @classmethod
+    def initial(cls, n_units: int, noise: float) -> RunState:
+        return cls(order=np.arange(n_units), damage=[""] * n_units, noise=noise)
+
+    def position(self) -> np.ndarray:
+        """``position[u]``: where unit u sits."""
+        return np.argsort(self.order)
+
+    def alive(self) -> np.ndarray:
+        """Per unit: not dead."""
+        return np.array([mode != "dead" for mode in self.damage])
+
+    def place_damage(self, world: World) -> None:
+        """The world sees damage by position: it travels with its unit."""
+        for p, unit in enumerate(self.order):
+            world.set_damage(p, self.damage[unit])
 
 
 @dataclass(frozen=True, kw_only=True)
-class Event:
-    """One event; only the fields of its kind are set."""
+class Event(ABC):
+    """One event: ``step`` and ``kind`` (a field, so ``dataclasses.asdict`` gives the table it was parsed from)
+    followed by its kind's fields."""
 
     step: int
     """learning step at whose start it happens (>= 1)."""
-    kind: str
-    """one of EVENT_FIELDS."""
-    scale: float | None = None
-    """friction: new friction scale (> 0)."""
-    unit: int | None = None
-    """damage: the unit, 1 = front."""
-    mode: str | None = None
-    """damage: one of DAMAGE_MODES."""
-    seed: int | None = None
-    """shuffle: seed of the permutation."""
-    link: int | None = None
-    """cut: the link, 1-based."""
-    sigma: float | None = None
-    """noise: new measurement noise, mm/cycle (>= 0)."""
+    kind: str = field(init=False)
+    """the key of its class in EVENT_KINDS."""
+
+    @classmethod
+    @abstractmethod
+    def parse(cls, item: dict, source: str, where: str, n_units: int, n_links: int) -> dict[str, Any]:
+        """The kind's fields of the table ``item`` (at key ``where`` of ``source``), validated."""
+
+    @abstractmethod
+    def apply(self, world: World, state: RunState) -> None:
+        """Change ``world`` or ``state`` as the event does, at the start of its step."""
+
+    @classmethod
+    def kind_fields(cls) -> tuple[str, ...]:
+        """The kind's own fields, in the order ``describe`` lists them."""
+        return tuple(f.name for f in dataclasses.fields(cls) if f.name not in ("step", "kind"))
 
     def describe(self) -> str:
         """Short text for the records, e.g. 'damage unit=2 mode=no-inflate'."""
-        return " ".join([self.kind] + [f"{name}={getattr(self, name)}" for name in EVENT_FIELDS[self.kind]])
+        return " ".join([self.kind] + [f"{name}={getattr(self, name)}" for name in self.kind_fields()])
+
+
+@dataclass(frozen=True, kw_only=True)
+class FrictionEvent(Event):
+    kind: str = field(default="friction", init=False)
+    scale: float
+    """new friction scale (> 0)."""
+
+    @classmethod
+    def parse(cls, item, source, where, n_units, n_links):
+        return {"scale": require_number(item["scale"], source, f"{where}.scale", 0, strict=True)}
+
+    def apply(self, world, state):
+        world.set_friction_scale(self.scale)
+
+
+@dataclass(frozen=True, kw_only=True)
+class DamageEvent(Event):
+    kind: str = field(default="damage", init=False)
+    unit: int
+    """the unit, 1 = front."""
+    mode: str
+    """one of DAMAGE_MODES."""
+
+    @classmethod
+    def parse(cls, item, source, where, n_units, n_links):
+        unit = require_integer(item["unit"], source, f"{where}.unit", 1, n_units, f"a unit number in [1, {n_units}]")
+        if item["mode"] not in DAMAGE_MODES:
+            raise ConfigError(source, f"{where}.mode", f"one of {', '.join(DAMAGE_MODES)}", item["mode"])
+        return {"unit": unit, "mode": item["mode"]}
+
+    def apply(self, world, state):
+        state.damage[self.unit - 1] = self.mode
+        state.place_damage(world)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ShuffleEvent(Event):
+    kind: str = field(default="shuffle", init=False)
+    seed: int
+    """seed of the permutation."""
+
+    @classmethod
+    def parse(cls, item, source, where, n_units, n_links):
+        return {"seed": require_integer(item["seed"], source, f"{where}.seed", 0)}
+
+    def apply(self, world, state):
+        state.order = state.order[shuffle_order(len(state.order), self.seed)]  # the permutation of the shape transform
+        state.place_damage(world)
+
+
+@dataclass(frozen=True, kw_only=True)
+class CutEvent(Event):
+    kind: str = field(default="cut", init=False)
+    link: int
+    """the link, 1-based."""
+
+    @classmethod
+    def parse(cls, item, source, where, n_units, n_links):
+        return {"link": require_integer(item["link"], source, f"{where}.link", 1, n_links,
+                                        f"a link number in [1, {n_links}]")}
+
+    def apply(self, world, state):
+        world.cut(self.link - 1)
+
+
+@dataclass(frozen=True, kw_only=True)
+class NoiseEvent(Event):
+    kind: str = field(default="noise", init=False)
+    sigma: float
+    """new measurement noise, mm/cycle (>= 0)."""
+
+    @classmethod
+    def parse(cls, item, source, where, n_units, n_links):
+        return {"sigma": require_number(item["sigma"], source, f"{where}.sigma", 0)}
+
+    def apply(self, world, state):
+        state.noise = self.sigma
+
+
+EVENT_KINDS: dict[str, type[Event]] = {"friction": FrictionEvent, "damage": DamageEvent, "shuffle": ShuffleEvent,
+                                       "cut": CutEvent, "noise": NoiseEvent}
 
 
 def parse_events(items: Any, source: str, n_units: int, n_links: int) -> tuple[Event, ...]:
@@ -64,30 +179,16 @@ def parse_events(items: Any, source: str, n_units: int, n_links: int) -> tuple[E
         if not isinstance(item, dict):
             raise ConfigError(source, where, "a table with step, kind and the kind's fields", item)
         kind = item.get("kind")
-        if kind not in EVENT_FIELDS:
-            raise ConfigError(source, f"{where}.kind", f"one of {', '.join(EVENT_FIELDS)}", kind)
-        allowed = {"step", "kind", *EVENT_FIELDS[kind]}
+        if kind not in EVENT_KINDS:
+            raise ConfigError(source, f"{where}.kind", f"one of {', '.join(EVENT_KINDS)}", kind)
+        cls = EVENT_KINDS[kind]
+        allowed = {"step", "kind", *cls.kind_fields()}
         for key in item:
             if key not in allowed:
                 raise ConfigError(source, f"{where}.{key}", f"one of the keys of a {kind} event: {', '.join(sorted(allowed))}")
         for key in allowed:
             if key not in item:
                 raise ConfigError(source, f"{where}.{key}", f"a value (a {kind} event needs {', '.join(sorted(allowed))})")
-        values = {"step": require_integer(item["step"], source, f"{where}.step", 1, expected="a learning step >= 1")}
-        if kind == "friction":
-            values["scale"] = require_number(item["scale"], source, f"{where}.scale", 0, strict=True)
-        elif kind == "noise":
-            values["sigma"] = require_number(item["sigma"], source, f"{where}.sigma", 0)
-        elif kind == "damage":
-            values["unit"] = require_integer(item["unit"], source, f"{where}.unit", 1, n_units,
-                                             f"a unit number in [1, {n_units}]")
-            if item["mode"] not in DAMAGE_MODES:
-                raise ConfigError(source, f"{where}.mode", f"one of {', '.join(DAMAGE_MODES)}", item["mode"])
-            values["mode"] = item["mode"]
-        elif kind == "shuffle":
-            values["seed"] = require_integer(item["seed"], source, f"{where}.seed", 0)
-        elif kind == "cut":
-            values["link"] = require_integer(item["link"], source, f"{where}.link", 1, n_links,
-                                             f"a link number in [1, {n_links}]")
-        events.append(Event(kind=kind, **values))
+        step = require_integer(item["step"], source, f"{where}.step", 1, expected="a learning step >= 1")
+        events.append(cls(step=step, **cls.parse(item, source, where, n_units, n_links)))
     return tuple(sorted(events, key=lambda e: e.step))

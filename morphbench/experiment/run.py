@@ -18,7 +18,7 @@ import numpy as np
 from morphbench.errors import ConfigError
 from morphbench.experiment.records import RunRecords
 from morphbench.learning import load_learner_class, make_learners
-from morphbench.experiment.events import Event
+from morphbench.experiment.events import Event, RunState, parse_events
 from morphbench.params import (
     DEFAULT_PHYSICS,
     SENSOR_KINDS,
@@ -33,10 +33,7 @@ from morphbench.physics.camera import CameraGround
 from morphbench.sensing import GroundTexture, IdealSensor, OpticalSensor, Sensor
 from morphbench.sensing.base import forward_axes
 from morphbench.shapes import Shape, load_shape, params_from_dict
-from morphbench.shapes.transforms import shuffle_order
-
-NOISE_STREAM = 1  # SeedSequence([seed, NOISE_STREAM, unit]) is unit's measurement-noise stream; 0 is its learner's
-OPTICAL_STREAM = 5  # SeedSequence([seed, OPTICAL_STREAM]): the optical sensors' image noise
+from morphbench.streams import NOISE_STREAM, OPTICAL_STREAM
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -65,20 +62,21 @@ class RunConfig:
                          "n_units": self.shape.n_units}
         for key in ("learner_params", "sensor", "environment", "physics"):
             data[key] = dataclasses.asdict(data[key])
-        data["events"] = [{k: v for k, v in dataclasses.asdict(e).items() if v is not None} for e in self.events]
+        data["events"] = [dataclasses.asdict(e) for e in self.events]  # each its kind, step and own fields
         return data
 
     @classmethod
     def from_dict(cls, data: dict, source: str = "summary.json") -> RunConfig:
         """The config ``to_dict`` wrote, its shape reloaded from its file (to replay a finished run)."""
         try:
+            shape = load_shape(data["shape"]["source"])
             return cls(
-                shape=load_shape(data["shape"]["source"]),
+                shape=shape,
                 learner=data["learner"],
                 learner_params=params_from_dict(LearnerParams, data["learner_params"]),
                 sensor=params_from_dict(SensorParams, data["sensor"]),
                 environment=params_from_dict(EnvironmentParams, data["environment"]),
-                events=tuple(Event(**e) for e in data["events"]),
+                events=parse_events(data["events"], source, shape.n_units, len(shape.links)),
                 physics=params_from_dict(PhysicsParams, data["physics"]),
                 steps=data["steps"],
                 seed=data["seed"],
@@ -147,63 +145,98 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
     Units keep their identity (learner, memory, noise stream, damage) when a shuffle moves them: ``order[p]`` is the
     unit at position p (0 = front), and the world sees phases by position.
     """
-    shape, lp, n = config.shape, config.learner_params, config.shape.n_units
-    learners = make_learners(load_learner_class(config.learner), lp, config.seed, n)
-    noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u])) for u in range(n)]
+    learners = make_learners(load_learner_class(config.learner), config.learner_params, config.seed,
+                             config.shape.n_units)
     records = RunRecords(config)
-    order, damage, noise = np.arange(n), [""] * n, config.environment.noise
-    events = {}
-    for event in config.events:
-        events.setdefault(event.step, []).append(event)
     started = time.perf_counter()
-    cycle, to_mm_per_cycle = shape.actuator.cycle_time, 1000.0 / lp.cycles_per_step
-    with make_world(shape, config.physics, config.environment, scene=config.sensor.kind == "camera") as world:
-        sensor = make_sensor(config.sensor, n, config.environment, config.seed, world)
-        # The ground truth is sampled on the sensor's ticks, so poses are read once; an ideal sensor is its own truth.
-        truth = None if isinstance(sensor, IdealSensor) else IdealSensor(n, sample_period=sensor.sample_period)
-        observe = (lambda k: on_tick(world)) if on_tick is not None else None
-        world.set_phases([learner.phase for learner in learners])
-        world.advance(world.ticks_in(lp.warmup_cycles * cycle), observe)
+    with make_world(config.shape, config.physics, config.environment, scene=config.sensor.kind == "camera") as world:
+        loop = _RunLoop(config, learners, world, on_tick)
+        loop.warm_up()
         for step in range(config.steps + 1):
-            for event in events.get(step, ()):
-                if event.kind == "friction":
-                    world.set_friction_scale(event.scale)
-                elif event.kind == "noise":
-                    noise = event.sigma
-                elif event.kind == "damage":
-                    damage[event.unit - 1] = event.mode
-                elif event.kind == "shuffle":
-                    order = order[shuffle_order(n, event.seed)]  # the permutation of the shape transform
-                elif event.kind == "cut":
-                    world.cut(event.link - 1)
-                if event.kind in ("damage", "shuffle"):
-                    for p in range(n):  # damage travels with its unit
-                        world.set_damage(p, damage[order[p]])
-            position = np.argsort(order)  # position[u]: where unit u sits
-            alive = np.array([d != "dead" for d in damage])
-            # A dead unit's learner stops: it keeps its phase and gets no measurement.
-            tried = np.array([learners[u].propose() if alive[u] else learners[u].phase for u in range(n)], dtype=float)
-            world.set_phases(tried[order])
-            world.advance(world.ticks_in(lp.discard_cycles * cycle), observe)
-            if truth is None:
-                sensed = true = measure(world, [sensor], lp.cycles_per_step, on_tick)[0]
-            else:
-                sensed, true = measure(world, [sensor, truth], lp.cycles_per_step, on_tick)
-            u_true = true[position] * to_mm_per_cycle
-            u_measured = sensed[position] * to_mm_per_cycle + np.array(
-                [rng.normal(0.0, noise) if noise else 0.0 for rng in noise_rngs])
-            u_measured[~alive] = np.nan
-            # Each learner gets its own unit's measurement and nothing else.
-            accepted = np.array([bool(learners[u].update(float(u_measured[u]))) if alive[u] else False for u in range(n)])
-            kept = np.array([learner.phase for learner in learners], dtype=float)
-            piece_of_body = {body: k for k, piece in enumerate(world.pieces()) for body in piece}
-            piece = np.array([piece_of_body[shape.units[p]] for p in position]) + 1
-            positions, orientations = world.unit_poses()  # the world lists units by position
-            axes = forward_axes(orientations[position])
-            records.add_step(step, world.time, tried, kept, u_measured, u_true, accepted, position + 1, piece,
-                             positions[position, :2], np.arctan2(axes[:, 1], axes[:, 0]),
-                             "; ".join(event.describe() for event in events.get(step, ())))
+            applied = loop.apply_events(step)
+            tried = loop.propose()
+            u_measured, u_true = loop.actuate_and_measure()
+            accepted = loop.update(u_measured)
+            loop.record(records, step, tried, u_measured, u_true, accepted, applied)
             if progress is not None:
                 progress(step, records)
     records.finish(wall_time=time.perf_counter() - started)
     return records
+
+
+class _RunLoop:
+    """One run's world, sensors, learners and what events change; each method is a phase of the run."""
+
+    def __init__(self, config: RunConfig, learners: list, world: World, on_tick: Callable[[World], None] | None):
+        n = config.shape.n_units
+        self.config, self.learners, self.world, self.on_tick = config, learners, world, on_tick
+        self.noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u]))
+                           for u in range(n)]
+        self.state = RunState.initial(n, config.environment.noise)
+        self.events: dict[int, list[Event]] = {}
+        for event in config.events:
+            self.events.setdefault(event.step, []).append(event)
+        self.sensor = make_sensor(config.sensor, n, config.environment, config.seed, world)
+        # The ground truth is sampled on the sensor's ticks, so poses are read once; an ideal sensor is its own truth.
+        self.truth = None if isinstance(self.sensor, IdealSensor) else IdealSensor(n, self.sensor.sample_period)
+        self.observe = (lambda k: on_tick(world)) if on_tick is not None else None
+
+    def warm_up(self) -> None:
+        """Start every pump at its learner's initial phase and let the gait settle."""
+        self.world.set_phases([learner.phase for learner in self.learners])
+        self._advance(self.config.learner_params.warmup_cycles)
+
+    def apply_events(self, step: int) -> list[Event]:
+        """The events of ``step``, applied in their order."""
+        applied = self.events.get(step, [])
+        for event in applied:
+            event.apply(self.world, self.state)
+        return applied
+
+    def propose(self) -> np.ndarray:
+        """Each living unit's trial phase, set in the world by position (a dead unit's learner stops: it keeps its
+        phase and gets no measurement)."""
+        alive = self.state.alive()
+        tried = np.array([learner.propose() if alive[u] else learner.phase for u, learner in enumerate(self.learners)],
+                         dtype=float)
+        self.world.set_phases(tried[self.state.order])
+        return tried
+
+    def actuate_and_measure(self) -> tuple[np.ndarray, np.ndarray]:
+        """Drop ``discard_cycles`` of transient, measure ``cycles_per_step``: per unit the measured velocity (with
+        the unit's own noise; NaN for a dead unit) and the true one, mm/cycle."""
+        lp = self.config.learner_params
+        self._advance(lp.discard_cycles)
+        if self.truth is None:
+            sensed = true = measure(self.world, [self.sensor], lp.cycles_per_step, self.on_tick)[0]
+        else:
+            sensed, true = measure(self.world, [self.sensor, self.truth], lp.cycles_per_step, self.on_tick)
+        position, to_mm_per_cycle = self.state.position(), 1000.0 / lp.cycles_per_step
+        noise = self.state.noise
+        u_true = true[position] * to_mm_per_cycle
+        u_measured = sensed[position] * to_mm_per_cycle + np.array(
+            [rng.normal(0.0, noise) if noise else 0.0 for rng in self.noise_rngs])
+        u_measured[~self.state.alive()] = np.nan
+        return u_measured, u_true
+
+    def update(self, u_measured: np.ndarray) -> np.ndarray:
+        """Each living learner gets its own unit's measurement and nothing else; whether it accepted its trial."""
+        alive = self.state.alive()
+        return np.array([bool(learner.update(float(u_measured[u]))) if alive[u] else False
+                         for u, learner in enumerate(self.learners)])
+
+    def record(self, records: RunRecords, step: int, tried: np.ndarray, u_measured: np.ndarray, u_true: np.ndarray,
+               accepted: np.ndarray, applied: list[Event]) -> None:
+        """The step's row per unit, with its position, piece and pose, and the events applied."""
+        world, position = self.world, self.state.position()
+        kept = np.array([learner.phase for learner in self.learners], dtype=float)
+        piece_of_body = {body: k for k, piece in enumerate(world.pieces()) for body in piece}
+        piece = np.array([piece_of_body[self.config.shape.units[p]] for p in position]) + 1
+        positions, orientations = world.unit_poses()  # the world lists units by position
+        axes = forward_axes(orientations[position])
+        records.add_step(step, world.time, tried, kept, u_measured, u_true, accepted, position + 1, piece,
+                         positions[position, :2], np.arctan2(axes[:, 1], axes[:, 0]),
+                         "; ".join(event.describe() for event in applied))
+
+    def _advance(self, n_cycles: float) -> None:
+        self.world.advance(self.world.ticks_in(n_cycles * self.config.shape.actuator.cycle_time), self.observe)

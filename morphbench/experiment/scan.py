@@ -21,6 +21,7 @@ from morphbench.params import DEFAULT_PHYSICS, EnvironmentParams, PhysicsParams
 from morphbench.physics import make_world
 from morphbench.sensing import IdealSensor
 from morphbench.shapes import Shape
+from morphbench.streams import SCAN_STREAM
 
 DEFAULT_CYCLES = 12  # cycles measured per point: the gait repeats every cycle, 12 average out slow transients
 DEFAULT_DISCARD = 2  # cycles dropped first: the pressures and the chain settle into the periodic gait
@@ -34,7 +35,7 @@ def scan_phases(n_units: int, resolution: int, samples: int | None = None, seed:
         axis = np.arange(resolution) / resolution
         grid = np.array(list(itertools.product(axis, repeat=n_units - 1)))
     else:
-        rng = np.random.default_rng(np.random.SeedSequence([seed, 2]))
+        rng = np.random.default_rng(np.random.SeedSequence([seed, SCAN_STREAM]))
         grid = rng.uniform(0.0, 1.0, size=(samples or resolution * resolution, n_units - 1))
     return np.hstack([np.zeros((len(grid), 1)), grid])
 

@@ -49,11 +49,9 @@ from morphbench.learning.base import Learner
 from morphbench.learning.baselines import RandomLearner
 from morphbench.learning.metropolis import FlakyLearner, ThermalLearner
 from morphbench.params import LearnerParams
+from morphbench.streams import LEARNER_STREAM
 
 LEARNERS: dict[str, type[Learner]] = {"thermal": ThermalLearner, "flaky": FlakyLearner, "random": RandomLearner}
-
-LEARNER_STREAM = 0
-"""SeedSequence stream id of the learners (the run loop draws measurement noise from stream 1)."""
 
 _SOURCE = "--learner"
 _SPEC_FORM = "'thermal', 'flaky' or 'random' (any case), or a plug-in class as 'package.module:ClassName'"

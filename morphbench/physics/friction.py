@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from morphbench.params import FrictionFieldParams
+from morphbench.streams import FRICTION_STREAM
 
 N_MODES_2D = 48  # random wave vectors summed in a 2-D field
 GRID = 2048  # samples per period used to normalise the field to [-1, 1]
@@ -19,7 +20,7 @@ class FrictionField:
 
     def __init__(self, params: FrictionFieldParams):
         self.params = params
-        rng = np.random.default_rng(np.random.SeedSequence([params.seed, 3]))
+        rng = np.random.default_rng(np.random.SeedSequence([params.seed, FRICTION_STREAM]))
         k_max = max(1, int(round(params.period / params.correlation_length)))
         if params.two_d:
             k = rng.integers(-k_max, k_max + 1, size=(N_MODES_2D, 2))

@@ -25,10 +25,8 @@ import numpy as np
 
 from morphbench.shapes.checks import components
 from morphbench.shapes.model import Link, Shape
+from morphbench.streams import SHUFFLE_STREAM
 
-SHUFFLE_STREAM = 4
-"""The permutation of ``shuffle(shape, seed)`` is drawn from ``SeedSequence([seed, SHUFFLE_STREAM])``, as a run's
-shuffle event draws its own."""
 PLANES = "xyz"
 
 
