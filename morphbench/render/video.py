@@ -38,7 +38,7 @@ import pybullet as pb
 from morphbench.errors import ConfigError
 from morphbench.params import VideoParams
 from morphbench.physics.geometry import body_shapes
-from morphbench.shapes.export import DUMMY_RGBA, UNIT_RGBA
+from morphbench.shapes.colours import DUMMY_RGBA, UNIT_RGBA
 
 FORMATS = (".mp4", ".gif")
 FOV = 40.0
