@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from morphbench.experiment.run import run
-from morphbench.experiment.scan import velocity_at
+from morphbench.experiment.scan import ScanPoint
 from morphbench.failures import describe
 
 
@@ -43,7 +43,7 @@ def _run(config) -> dict[str, Any]:
 
 def _scan(payload) -> dict[str, Any]:
     shape, phases, physics, cycles, discard, environment = payload
-    ubar = [float(np.mean(velocity_at(shape, p, physics, cycles, discard, environment))) for p in phases]
+    ubar = [ScanPoint(shape, p, physics, cycles, discard, environment).ubar() for p in phases]
     points = pd.DataFrame(np.asarray(phases)[:, 1:], columns=[f"dphi_{i}" for i in range(2, shape.n_units + 1)])
     points["ubar"] = ubar
     bad = np.flatnonzero(~np.isfinite(points.ubar.to_numpy()))
