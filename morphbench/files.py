@@ -1,9 +1,8 @@
 """Reading and writing the project's files (standard library only, so any module may use it).
 
-Every file the project writes goes through ``atomic_write`` (or a ``Replacement`` for a file written over time, like
-a video): it is written under a temporary name in its own directory and renamed onto its name, so a reader sees the
-old file or the new one, never half of one, and a killed process leaves only a ``.NAME.tmp-PID`` file behind (which
-``bench.store`` clears). TOML files are read by ``read_toml``, with one message for each way a file can be bad.
+A file written through ``atomic_write`` (or a ``Replacement``, for a file written over time like a video) is written
+under a temporary name in its own directory and renamed onto its name, so a reader sees the old file or the new one,
+never half of one, and a killed process leaves only a ``.NAME.tmp-PID`` file behind (which ``bench.store`` clears). TOML files are read by ``read_toml``, with one message for each way a file can be bad.
 """
 
 from __future__ import annotations
