@@ -12,6 +12,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from morphbench.files import atomic_write  # noqa: E402
+
 
 def learning_curve(steps: pd.DataFrame, units: pd.DataFrame, path: str | Path, title: str = "") -> Path:
     """Ubar and acceptance vs learning step, and each unit's kept phase."""
@@ -33,7 +35,7 @@ def learning_curve(steps: pd.DataFrame, units: pd.DataFrame, path: str | Path, t
     if units.unit.nunique() <= 8:
         ax_p.legend(loc="upper right", fontsize="small", markerscale=4)
     fig.suptitle(title)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def trajectory_figure(tracks: pd.DataFrame | Mapping[str, pd.DataFrame], path: str | Path, title: str = "") -> Path:
@@ -68,7 +70,7 @@ def trajectory_figure(tracks: pd.DataFrame | Mapping[str, pd.DataFrame], path: s
         ax.legend(fontsize="x-small")
     ax.set_title((f"{title}\n" if title else "") + "centroid: circle at the start, dot at the end, arrow the final "
                  "heading", fontsize="small")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def scan_figure(table: pd.DataFrame, path: str | Path, title: str = "") -> Path:
@@ -94,12 +96,12 @@ def scan_figure(table: pd.DataFrame, path: str | Path, title: str = "") -> Path:
         ax.set_xlabel(f"Ubar (mm/cycle) at {len(table)} sampled phase vectors")
         ax.set_ylabel("count")
     ax.set_title(title)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
-def _save(fig, path: str | Path) -> Path:
-    path = Path(path)
+def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    """Lay ``fig`` out, write it to ``path`` atomically (the format from its suffix) and close it."""
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=dpi))
     plt.close(fig)
-    return path
+    return Path(path)

@@ -11,7 +11,7 @@ import pytest
 import trimesh
 
 from morphbench.physics.geometry import BodyShapes, body_shapes, mesh_file
-from morphbench.shapes.export import PRIMITIVES, body_mesh, check_mesh, mass_properties
+from morphbench.shapes.meshes import PRIMITIVES, body_mesh, check_mesh, mass_properties
 from morphbench.shapes.model import Body
 
 SIZE = (0.06, 0.04, 0.03)

@@ -16,7 +16,8 @@ from morphbench.params import ActuatorParams, DummyParams, UnitParams
 from morphbench.shapes import check_shape, components, is_connected, load_shape, shuffle
 from morphbench.cli import main
 from morphbench.shapes.cli import add_shapes_commands
-from morphbench.shapes.export import body_names, draw, export_scene
+from morphbench.shapes.drawing import draw
+from morphbench.shapes.export import body_names, export_scene
 from morphbench.shapes.loader import GENERATORS, MAX_UNITS
 from test_shapes_loader import assert_config_error, write
 

@@ -8,14 +8,17 @@
     metrics.py    per-condition metrics (final Ubar, exponential fit, steps to 0.8 U_eq, acceptance, scan best)
     report.py     figures and report.md, rebuilt from the store
     cli.py        the `bench` and `report` subcommands (add_bench_commands)
+
+The names below are imported on first use (``morphbench.lazy``): the metrics and the report need no simulator.
 """
 
-from morphbench.bench.cli import add_bench_commands
-from morphbench.bench.executors import DaskExecutor, LocalExecutor
-from morphbench.bench.report import build_report
-from morphbench.bench.runner import Outcome, run_suite
-from morphbench.bench.store import Store
-from morphbench.bench.suite import Suite, load_suite
+from morphbench.lazy import export_lazily
 
-__all__ = ["DaskExecutor", "LocalExecutor", "Outcome", "Store", "Suite", "add_bench_commands", "build_report",
-           "load_suite", "run_suite"]
+export_lazily(__name__, {
+    "add_bench_commands": "cli",
+    "DaskExecutor": "executors", "LocalExecutor": "executors",
+    "build_report": "report",
+    "Outcome": "runner", "run_suite": "runner",
+    "Store": "store",
+    "Suite": "suite", "load_suite": "suite",
+})

@@ -15,7 +15,8 @@ import numpy as np
 import pandas as pd
 
 from morphbench.experiment.run import run
-from morphbench.experiment.scan import velocity_at
+from morphbench.experiment.scan import ScanPoint
+from morphbench.failures import describe
 
 
 def execute(job) -> dict[str, Any]:
@@ -42,7 +43,7 @@ def _run(config) -> dict[str, Any]:
 
 def _scan(payload) -> dict[str, Any]:
     shape, phases, physics, cycles, discard, environment = payload
-    ubar = [float(np.mean(velocity_at(shape, p, physics, cycles, discard, environment))) for p in phases]
+    ubar = [ScanPoint(shape, p, physics, cycles, discard, environment).ubar() for p in phases]
     points = pd.DataFrame(np.asarray(phases)[:, 1:], columns=[f"dphi_{i}" for i in range(2, shape.n_units + 1)])
     points["ubar"] = ubar
     bad = np.flatnonzero(~np.isfinite(points.ubar.to_numpy()))
@@ -57,13 +58,3 @@ def non_finite_step(steps: pd.DataFrame) -> int | None:
     bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
     return int(steps.step.iloc[bad[0]]) if len(bad) else None
 
-
-def describe(exc: BaseException) -> str:
-    """One line: the exception and where it was raised (the innermost frame)."""
-    text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-    text = " ".join(text.split())
-    frames = traceback.extract_tb(exc.__traceback__)
-    if frames:
-        last = frames[-1]
-        text += f" (in {last.name}, {last.filename.rsplit('/', 1)[-1]}:{last.lineno})"
-    return text

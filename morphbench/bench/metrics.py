@@ -23,13 +23,14 @@ learners themselves only ever see ``ubar``, the measured one). Pass ``column='ub
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 import pandas as pd
 
 from morphbench.bench.store import SUMMARY_COLUMNS
-from morphbench.experiment.records import FINAL_FRACTION
+from morphbench.experiment.records import final_value
 
 THRESHOLD = 0.8
 PLATEAU_SPANS = 3.0
@@ -128,17 +129,6 @@ def first_event_step(events) -> int | None:
     return happened[0] if happened else None
 
 
-def final_value(steps, values) -> float:
-    """Mean of ``values`` over the last FINAL_FRACTION (at least one) of the learning steps, step 0 (the initial
-    measurement) excluded: the definition of a run's final Ubar in its summary."""
-    steps, values = np.asarray(steps), np.asarray(values, dtype=float)
-    learning = values[steps > 0]
-    if not len(learning):
-        return math.nan
-    n_final = max(1, int(round(len(learning) * FINAL_FRACTION)))
-    return float(np.mean(learning[-n_final:]))
-
-
 def curves(steps: pd.DataFrame, column: str = "ubar_true") -> pd.DataFrame:
     """Per condition and learning step: runs, mean and quantiles (q10, q25, q50, q75, q90) of Ubar, mean acceptance."""
     if steps.empty:
@@ -185,7 +175,7 @@ def condition_metrics(steps: pd.DataFrame, runs: pd.DataFrame, scans: pd.DataFra
         row["final_u_heading"], row["final_u_heading_std"] = _over_runs(done, "final_u_heading")
         row["turning_rate"], row["turning_rate_std"] = _over_runs(done, "turning_rate_deg_per_cycle")
         row.update(_recovery(per_run, column))
-        key = (row.get("shape_id"), row.get("physics"), row.get("environment_id", _DEFAULT_GROUND))
+        key = (row.get("shape_id"), row.get("physics"), row.get("environment_id", _default_ground()))
         row["scan_best_ubar"] = best.get(key, math.nan)
         row["learned_fraction"] = (row["final_ubar"] / row["scan_best_ubar"]
                                    if row["scan_best_ubar"] > 0 else math.nan)
@@ -228,19 +218,19 @@ def scan_best(scans: pd.DataFrame) -> dict[tuple, float]:
     scans had environments: the default ground)."""
     if scans is None or scans.empty:
         return {}
-    scans = scans if "environment_id" in scans else scans.assign(environment_id=_DEFAULT_GROUND)
-    scans = scans.fillna({"environment_id": _DEFAULT_GROUND})
+    scans = scans if "environment_id" in scans else scans.assign(environment_id=_default_ground())
+    scans = scans.fillna({"environment_id": _default_ground()})
     grouped = scans.groupby(["shape_id", "physics", "environment_id"]).ubar.max()
     return {key: float(value) for key, value in grouped.items()}
 
 
+@functools.cache
 def _default_ground() -> str:
-    from morphbench.bench.suite import environment_id  # the suite module imports pandas-free pieces only
+    """The environment id of the default ground (suite.environment_id, imported here on first use: the suite module
+    imports the run loop and with it the simulator, which importing the metrics must not)."""
+    from morphbench.bench.suite import environment_id
     from morphbench.params import EnvironmentParams
     return environment_id(EnvironmentParams())
-
-
-_DEFAULT_GROUND = _default_ground()
 
 
 _RUN_ONLY = {"run_id", "condition_id", "experiments", "seed", "status", "error", *SUMMARY_COLUMNS, "wall_time_s"}

@@ -29,6 +29,7 @@ import pandas as pd  # noqa: E402
 from morphbench import plots  # noqa: E402
 from morphbench.bench import metrics as M  # noqa: E402
 from morphbench.bench.store import Store  # noqa: E402
+from morphbench.files import write_text  # noqa: E402
 
 MAX_PANELS = 24
 
@@ -88,7 +89,7 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
             lines.append(f"| scan part {row.job_id} | | | {_cell(row.error)} |")
         lines.append("")
     path = store.root / "report.md"
-    path.write_text("\n".join(lines) + "\n")
+    write_text(path, "\n".join(lines) + "\n")
     return path
 
 
@@ -194,7 +195,7 @@ def _ubar_figure(name, mine, curves, labels, path: Path) -> Path:
         ax.set_visible(False)
     axes.flat[0].legend(fontsize="x-small", loc="lower right")
     fig.suptitle(f"{name}: Ubar over seeds")
-    return _save(fig, path)
+    return plots.save_figure(fig, path, dpi=100)
 
 
 def _acceptance_figure(name, mine, curves, labels, path: Path) -> Path:
@@ -210,7 +211,7 @@ def _acceptance_figure(name, mine, curves, labels, path: Path) -> Path:
     if len(mine) <= 12:
         ax.legend(fontsize="x-small")
     ax.set_title(f"{name}: acceptance over seeds and units")
-    return _save(fig, path)
+    return plots.save_figure(fig, path, dpi=100)
 
 
 def _scaling_figure(name, mine, varying, path: Path) -> Path:
@@ -231,7 +232,7 @@ def _scaling_figure(name, mine, varying, path: Path) -> Path:
     if others:
         ax_u.legend(fontsize="x-small")
     fig.suptitle(f"{name}: scaling with the number of units")
-    return _save(fig, path)
+    return plots.save_figure(fig, path, dpi=100)
 
 
 def _display_columns(varying) -> list[str]:
@@ -266,10 +267,3 @@ def _pm(mean: float, std: float, digits: int = 2) -> str:
 
 def _cell(text) -> str:
     return str(text).replace("|", "\\|").replace("\n", " ")
-
-
-def _save(fig, path: Path) -> Path:
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path

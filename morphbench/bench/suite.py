@@ -69,7 +69,6 @@ import itertools
 import json
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -82,6 +81,7 @@ from morphbench.experiment.config import environment_from_table
 from morphbench.experiment.events import Event, parse_events
 from morphbench.experiment.run import RunConfig
 from morphbench.experiment.scan import DEFAULT_CYCLES, DEFAULT_DISCARD, scan_phases
+from morphbench.files import read_toml_with_text
 from morphbench.learning import load_learner_class
 from morphbench.shapes import Shape, load_shape, params_from_table
 
@@ -228,16 +228,7 @@ class Suite:
 def load_suite(path: str | Path) -> Suite:
     """Read, validate and expand a suite file."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(path, "(file)", "an existing suite file (.toml)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(path, "(file)", f"a readable UTF-8 TOML file ({exc})") from None
-    try:
-        table = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(path, "(syntax)", f"valid TOML ({exc})") from None
+    table, text = read_toml_with_text(path, "suite file")
     return suite_from_table(table, source=str(path), base=path.parent, default_name=path.stem, text=text)
 
 

@@ -1,9 +1,15 @@
-"""Experiments: the run loop, its records and landscape scans."""
+"""Experiments: the run loop, its records and landscape scans.
 
-from morphbench.experiment.config import load_run_config, run_config_from_table
-from morphbench.experiment.events import Event, parse_events
-from morphbench.experiment.records import RunRecords
-from morphbench.experiment.run import RunConfig, make_sensor, measure, run
-from morphbench.experiment.scan import Motion, motion_at, scan, scan_phases, velocity_at
+The names below are imported on first use (``morphbench.lazy``): ``records`` and ``events`` need no simulator, and
+importing them (as the metrics and the report do) must not start one.
+"""
 
-__all__ = ["Event", "RunConfig", "RunRecords", "load_run_config", "parse_events", "run_config_from_table", "make_sensor", "measure", "Motion", "motion_at", "run", "scan", "scan_phases", "velocity_at"]
+from morphbench.lazy import export_lazily
+
+export_lazily(__name__, {
+    "Event": "events", "parse_events": "events",
+    "RunRecords": "records",
+    "load_run_config": "config", "run_config_from_table": "config",
+    "RunConfig": "run", "make_sensor": "run", "measure": "run", "run": "run",
+    "Motion": "scan", "motion_at": "scan", "scan": "scan", "scan_phases": "scan", "velocity_at": "scan",
+})

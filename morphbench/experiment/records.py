@@ -32,12 +32,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
+
+from morphbench.files import atomic_write, write_text
 
 UNIT_COLUMNS = ("step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true", "accepted",
                 "x_m", "y_m", "heading_rad")
@@ -136,18 +137,17 @@ class RunRecords:
         """Configuration, seed and the run's headline figures."""
         steps, units = self.steps(), self.units()
         learning = steps[steps.step > 0]
-        n_final = max(1, int(round(len(learning) * FINAL_FRACTION)))
         return {
             "config": self.config.to_dict(),
             "seed": self.config.seed,
             "n_units": self.config.shape.n_units,
             "steps": int(learning.step.max()) if len(learning) else 0,
-            "final_ubar": float(learning.ubar.tail(n_final).mean()) if len(learning) else float("nan"),
-            "final_ubar_true": float(learning.ubar_true.tail(n_final).mean()) if len(learning) else float("nan"),
+            "final_ubar": final_value(steps.step, steps.ubar),
+            "final_ubar_true": final_value(steps.step, steps.ubar_true),
             "mean_acceptance": float(learning.acceptance.mean()) if len(learning) else float("nan"),
-            "final_u_heading": float(learning.u_heading.tail(n_final).mean()) if len(learning) else float("nan"),
+            "final_u_heading": final_value(steps.step, steps.u_heading),
             "turning_rate_deg_per_cycle": turning_rate(steps, self.config.shape.actuator.cycle_time),
-            "final_ubar_by_piece": self._final_by_piece(n_final),
+            "final_ubar_by_piece": self._final_by_piece(final_steps(len(learning))),
             "events": [event for event in steps.event if event],
             "sensor_error": float((units.u_measured - units.u_true).abs().mean()),
             "wall_time_s": self.wall_time,
@@ -168,19 +168,25 @@ class RunRecords:
         atomic_write(out / "steps.parquet", lambda tmp: self.steps().to_parquet(tmp, index=False))
         atomic_write(out / "pieces.parquet", lambda tmp: self.pieces().to_parquet(tmp, index=False))
         text = json.dumps(self.summary(), indent=2, sort_keys=True)
-        atomic_write(out / "summary.json", lambda tmp: Path(tmp).write_text(text + "\n"))
+        write_text(out / "summary.json", text + "\n")
         return out
 
 
-def atomic_write(path: Path, write) -> None:
-    """Call ``write(tmp_path)`` then rename onto ``path``: readers see the old file or the new one, never half."""
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+def final_steps(n_learning: int) -> int:
+    """How many of a run's ``n_learning`` learning steps final values average over: the last FINAL_FRACTION, at
+    least one."""
+    return max(1, int(round(n_learning * FINAL_FRACTION)))
+
+
+def final_value(steps, values) -> float:
+    """Mean of ``values`` over the ``final_steps`` last learning steps, step 0 (the initial measurement) excluded,
+    NaN values left out: the definition of a run's final Ubar (and final u_heading, final acceptance); NaN with no
+    learning step or no value."""
+    steps, values = np.asarray(steps), np.asarray(values, dtype=float)
+    learning = values[steps > 0]
+    final = learning[-final_steps(len(learning)):]
+    final = final[~np.isnan(final)]
+    return float(np.mean(final)) if len(final) else math.nan
 
 
 def turning_rate(steps: pd.DataFrame, cycle_time: float) -> float:

@@ -74,8 +74,22 @@ def velocity_at(shape: Shape, phases, physics: PhysicsParams = DEFAULT_PHYSICS, 
     return motion_at(shape, phases, physics, cycles, discard, environment).units
 
 
-def _ubar(args) -> float:
-    return float(np.mean(velocity_at(*args)))
+@dataclass(frozen=True)
+class ScanPoint:
+    """One point of a scan: all a worker process needs to measure it."""
+
+    shape: Shape
+    phases: np.ndarray
+    """cycles, one per unit (unit 1 at 0)."""
+    physics: PhysicsParams = DEFAULT_PHYSICS
+    cycles: int = DEFAULT_CYCLES
+    discard: int = DEFAULT_DISCARD
+    environment: EnvironmentParams = EnvironmentParams()
+
+    def ubar(self) -> float:
+        """mm/cycle, the mean true velocity of the units at these phases (``velocity_at``)."""
+        return float(np.mean(velocity_at(self.shape, self.phases, self.physics, self.cycles, self.discard,
+                                         self.environment)))
 
 
 def scan(shape: Shape, resolution: int = 20, *, physics: PhysicsParams = DEFAULT_PHYSICS, cycles: int = DEFAULT_CYCLES,
@@ -84,11 +98,11 @@ def scan(shape: Shape, resolution: int = 20, *, physics: PhysicsParams = DEFAULT
          progress: Callable[[int], None] | None = None) -> pd.DataFrame:
     """Ubar over phase differences: columns ``dphi_2`` ... ``dphi_N`` (cycles) and ``ubar`` (mm/cycle)."""
     phases = scan_phases(shape.n_units, resolution, samples, seed)
-    jobs = [(shape, p, physics, cycles, discard, environment) for p in phases]
+    jobs = [ScanPoint(shape, p, physics, cycles, discard, environment) for p in phases]
     ubar = []
     with ProcessPoolExecutor(max_workers=workers) if workers > 1 else nullcontext() as pool:
         chunk = max(1, len(jobs) // (8 * workers))
-        for value in pool.map(_ubar, jobs, chunksize=chunk) if pool else map(_ubar, jobs):
+        for value in pool.map(ScanPoint.ubar, jobs, chunksize=chunk) if pool else map(ScanPoint.ubar, jobs):
             ubar.append(value)
             if progress:
                 progress(1)

@@ -6,28 +6,22 @@
 - the bodies, with PyBullet's TinyRenderer (software, needs no display), through the world's own client; each active
   unit is coloured by the pressure of the bellows it drives, from blue (empty) to red (full); dummies are grey and
   damaged units black;
-- the ground, a checker of 5 cm squares drawn by the recorder itself: every pixel that shows no body is mapped back to
-  the ground plane through the camera's homography and shaded with a box-filtered checker (no aliasing near the
-  horizon). TinyRenderer rasterises a textured ground over the whole frame at ~0.1 s a frame at 640x360; drawn here it
-  costs a few milliseconds, and runs without a video pay nothing (the world itself is not touched but for colours);
+- the ground, a checker of 5 cm squares drawn by the recorder itself (``render.ground``), far faster than
+  TinyRenderer's; runs without a video pay nothing (the world itself is not touched but for colours);
 - an overlay: simulated time, learning step, last Ubar and each unit's phase.
 
 The camera looks along +y from the side and above, so forward (+x) motion runs left to right. It follows the
 assembly's mean body position, smoothed over ``follow_time``, or stays where it started (``follow=False``).
 
-Frames are written to a temporary file beside the output and renamed onto it by ``close()``; ``abort()`` (or leaving
-the ``with`` block by an exception) removes it, so a half-written video is never left behind. MP4 is H.264 ('avc1',
-plays in browsers) when this OpenCV build can encode it, MPEG-4 part 2 ('mp4v') otherwise; GIF goes through Pillow
-with one fixed palette.
+Frames are written (``render.writers``) to a temporary file beside the output and renamed onto it by ``close()``;
+``abort()`` (or leaving the ``with`` block by an exception) removes it, so a half-written video is never left behind.
+Parameters and the output path are checked first (``render.checks``).
 """
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
-import sys
-import tempfile
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
@@ -36,11 +30,14 @@ import numpy as np
 import pybullet as pb
 
 from morphbench.errors import ConfigError
+from morphbench.files import Replacement
 from morphbench.params import VideoParams
 from morphbench.physics.geometry import body_shapes
-from morphbench.shapes.export import DUMMY_RGBA, UNIT_RGBA
+from morphbench.render.checks import CLI_OPTIONS, GIF_MAX_FPS, check_output_path, check_video_params
+from morphbench.render.ground import GroundRasteriser
+from morphbench.render.writers import open_writer
+from morphbench.shapes.colours import DUMMY_RGBA, UNIT_RGBA
 
-FORMATS = (".mp4", ".gif")
 FOV = 40.0
 """degrees, vertical field of view of the camera."""
 FILL = 0.55
@@ -53,76 +50,6 @@ DUMMY_COLOUR = DUMMY_RGBA
 DAMAGED_COLOUR = (0.05, 0.05, 0.05, 1.0)
 COLOUR_LEVELS = 64
 """pressure is quantised to this many colours, so a body is recoloured only when its colour visibly changes."""
-CHECKER = 0.05
-"""m, side of a ground square."""
-GROUND_GREYS = (172.0, 208.0)
-"""grey levels (0..255) of the dark and light ground squares."""
-SKY = (214, 222, 232)
-"""RGB of whatever is above the horizon (only seen at shallow pitches)."""
-GIF_MAX_FPS = 50.0
-"""browsers show faster GIFs at 10 frames per second, so a GIF is refused above this rate."""
-CLI_OPTIONS = {"width": "--video-width", "height": "--video-height", "fps": "--video-fps", "speed": "--video-speed",
-               "steps": "--video-steps"}
-"""the command-line option of each VideoParams field that has one (for error messages)."""
-
-_h264_works: bool | None = None  # whether this process's OpenCV can open an 'avc1' writer (probed once)
-
-
-def check_video_params(params: VideoParams, cli: bool = False) -> VideoParams:
-    """``params`` if every field is in range, else a ConfigError naming the field (its option if ``cli``)."""
-
-    def fail(key: str, expected: str):
-        source = CLI_OPTIONS.get(key, "VideoParams") if cli else "VideoParams"
-        raise ConfigError(source, key, expected, getattr(params, key))
-
-    def number(value) -> bool:
-        return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-    for key in ("width", "height"):
-        value = getattr(params, key)
-        if isinstance(value, bool) or not isinstance(value, int) or not 16 <= value <= 4096 or value % 2:
-            fail(key, "an even integer from 16 to 4096 (pixels)")
-    if not number(params.fps) or not 0 < params.fps <= 240:
-        fail("fps", "a number > 0 and <= 240 (frames per second)")
-    if not number(params.speed) or params.speed <= 0:
-        fail("speed", "a number > 0 (simulated seconds per video second)")
-    if params.steps is not None:
-        ok = isinstance(params.steps, (tuple, list)) and len(params.steps) == 2
-        first, last = params.steps if ok else (None, None)
-        ok = ok and isinstance(first, int) and not isinstance(first, bool) and first >= 0
-        ok = ok and (last is None or (isinstance(last, int) and not isinstance(last, bool) and last >= first))
-        if not ok:
-            fail("steps", "None or (first, last) learning steps with 0 <= first <= last (last None: to the end)")
-    if not number(params.distance) or params.distance < 0:
-        fail("distance", "a number >= 0 (m; 0 fits the assembly)")
-    if not number(params.pitch) or not -89 <= params.pitch <= 0:
-        fail("pitch", "a number from -89 to 0 (degrees; negative looks down)")
-    if not isinstance(params.follow, bool):
-        fail("follow", "True or False")
-    if not number(params.follow_time) or params.follow_time <= 0:
-        fail("follow_time", "a number > 0 (simulated seconds)")
-    if not isinstance(params.overlay, bool):
-        fail("overlay", "True or False")
-    return params
-
-
-def check_output_path(path: str | os.PathLike, source: str = "--video") -> Path:
-    """The output file as a Path if a video can be written there: suffix .mp4 or .gif, in an existing writable
-    directory, not a directory itself. Otherwise a ConfigError naming ``source`` (the option it came from)."""
-    out = Path(path)
-    if out.suffix.lower() not in FORMATS:
-        raise ConfigError(source, str(path), "a video file name ending in .mp4 or .gif")
-    if out.is_dir():
-        raise ConfigError(source, str(path), "a video file name (this is a directory)")
-    parent = out.parent
-    if not parent.is_dir():
-        raise ConfigError(source, str(path), f"a file in an existing directory ({parent} does not exist)")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise ConfigError(source, str(path), f"a file in a writable directory ({parent} is not writable)")
-    if out.exists() and not os.access(out, os.W_OK):
-        raise ConfigError(source, str(path), "a file that can be replaced (this one is read-only)")
-    return out
-
 
 def pressure_colour(pressure: float, damaged: bool = False) -> tuple[float, float, float, float]:
     """RGBA (0..1) of a unit whose bellows is at ``pressure`` (0..1): blue when empty to red when full; black if
@@ -200,9 +127,8 @@ class VideoRecorder:
         self.frame_steps: list[int] = []
         self._source = source
         self._status: dict[str, Any] = {}
-        self._tmp = self.path.with_name(f".{self.path.stem}.tmp-{os.getpid()}{self.path.suffix}")
-        self._writer = (_GifWriter if self.format == ".gif" else _Mp4Writer)(
-            self._tmp, (params.width, params.height), params.fps, self.path, source)
+        self._output = Replacement(self.path)
+        self._writer = open_writer(self._output.tmp, (params.width, params.height), params.fps, self.path, source)
         self._closed = False
         self.world = None
         self._scene: RenderScene | None = None
@@ -269,9 +195,7 @@ class VideoRecorder:
         self._near, self._far = self._distance / 50, self._distance * 200
         self._projection = pb.computeProjectionMatrixFOV(FOV, width / height, self._near, self._far,
                                                          physicsClientId=c)
-        self._cols = np.arange(width, dtype=np.float32)
-        self._rows = np.arange(height, dtype=np.float32) + 1  # TinyRenderer's row r is at viewport y = r + 1
-        self._ground_cache: tuple[tuple, np.ndarray] | None = None
+        self._ground = GroundRasteriser(width, height, self._projection)
         self._start = world.time
         self._slots = 0  # frame times passed so far: start, start + interval, ...
 
@@ -342,7 +266,7 @@ class VideoRecorder:
                                                physicsClientId=c)
         rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
         bodies = np.asarray(seg).reshape(height, width) >= 0
-        frame = self._ground(view).copy()
+        frame = self._ground.image(view).copy()
         frame[bodies] = rgb[bodies]
         if self.params.overlay:
             self._overlay(frame, self.step if step is None else step)
@@ -360,38 +284,6 @@ class VideoRecorder:
                 self._levels[uid] = level
                 colour = pressure_colour(0.0 if damaged else level / (COLOUR_LEVELS - 1), damaged)
                 pb.changeVisualShape(uid, -1, rgbaColor=colour, physicsClientId=c)
-
-    def _ground(self, view) -> np.ndarray:
-        """(height, width, 3) uint8: the checkered ground plane z = 0 (and sky above the horizon) seen through
-        ``view``. Each pixel is mapped to the ground by the inverse of the plane's homography and shaded with the
-        checker averaged over the pixel's footprint."""
-        key = tuple(view)
-        if self._ground_cache is not None and self._ground_cache[0] == key:
-            return self._ground_cache[1]
-        width, height = self.params.width, self.params.height
-        clip = np.array(self._projection).reshape(4, 4).T @ np.array(view).reshape(4, 4).T
-        to_pixels = np.array([[width / 2, 0, width / 2], [0, -height / 2, height / 2], [0, 0, 1]])
-        inverse = np.linalg.inv(to_pixels @ clip[[0, 1, 3]][:, [0, 1, 3]]).astype(np.float32)
-        u, v = self._cols[None, :], self._rows[:, None]
-        gx, gy, gs = ((inverse[i, 0] * u) + (inverse[i, 1] * v + inverse[i, 2]) for i in range(3))
-        ahead = gs > 0  # the pixel's ray meets the ground in front of the camera
-        gs = np.where(ahead, gs, np.float32(1))
-        x, y = gx / gs, gy / gs
-        shade = np.ones_like(x)
-        for coord, row in ((x, 0), (y, 1)):
-            # footprint of one pixel along this ground axis, from the derivatives of the projective map
-            footprint = (np.abs((inverse[row, 0] - coord * inverse[2, 0]) / gs)
-                         + np.abs((inverse[row, 1] - coord * inverse[2, 1]) / gs))
-            footprint = np.maximum(footprint, np.float32(CHECKER * 1e-3))
-            shade *= (_square_wave_integral(coord + footprint / 2) - _square_wave_integral(coord - footprint / 2)) \
-                / footprint
-        np.nan_to_num(shade, copy=False)  # rays grazing the horizon: a footprint of inf shades mid-grey
-        dark, light = GROUND_GREYS
-        grey = ((dark + light) / 2 + (light - dark) / 2 * shade).astype(np.uint8)
-        image = cv2.cvtColor(grey, cv2.COLOR_GRAY2RGB)
-        image[~ahead] = SKY
-        self._ground_cache = (key, image)
-        return image
 
     def _overlay(self, frame: np.ndarray, step: int) -> None:
         """Time, step, last Ubar and phases, white on a darkened panel in the top left corner."""
@@ -428,17 +320,17 @@ class VideoRecorder:
                 raise ConfigError(self._source, str(self.path), "a video of at least one frame, but none was recorded "
                                   "(no simulated time passed, or --video-steps selects no step of the run)")
             self._writer.close()
-            os.replace(self._tmp, self.path)
+            self._output.commit()
         finally:
             self._writer.abort()
-            self._tmp.unlink(missing_ok=True)
+            self._output.discard()
         return self.path
 
     def abort(self) -> None:
         """Stop without writing: the temporary file is removed and ``path`` is left as it was."""
         self._closed = True
         self._writer.abort()
-        self._tmp.unlink(missing_ok=True)
+        self._output.discard()
 
     @property
     def codec(self) -> str:
@@ -453,14 +345,6 @@ class VideoRecorder:
             self.close()
         else:
             self.abort()
-
-
-def _square_wave_integral(z: np.ndarray) -> np.ndarray:
-    """Integral from 0 to z of the square wave that is +1 on [0, CHECKER) and -1 on [CHECKER, 2 CHECKER): a triangle
-    wave between 0 and CHECKER. (floor rather than np.mod: ten times faster on float32.)"""
-    cycles = z * np.float32(0.5 / CHECKER)
-    fraction = cycles - np.floor(cycles)
-    return np.float32(CHECKER) * (1 - np.abs(2 * fraction - 1))
 
 
 def _font_scale(height: int) -> float:
@@ -479,105 +363,3 @@ def _wrap(text: str, width: int, scale: float) -> list[str]:
             current = candidate
     lines.append(current)
     return lines
-
-
-class _Mp4Writer:
-    """cv2.VideoWriter: H.264 ('avc1') if this OpenCV build has an encoder for it, else MPEG-4 part 2 ('mp4v')."""
-
-    def __init__(self, tmp: Path, size: tuple[int, int], fps: float, path: Path, source: str):
-        global _h264_works
-        self._writer = None
-        for codec in ("avc1", "mp4v"):
-            if codec == "avc1" and _h264_works is False:
-                continue
-            # FFmpeg reports a missing H.264 encoder on stderr in several lines: probe quietly.
-            with _quiet_stderr() if codec == "avc1" else contextlib.nullcontext():
-                writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*codec), float(fps), size)
-            if codec == "avc1":
-                _h264_works = writer.isOpened()
-            if writer.isOpened():
-                self._writer, self.codec = writer, codec
-                return
-            writer.release()
-        tmp.unlink(missing_ok=True)
-        raise ConfigError(source, str(path), "a .gif: this OpenCV build cannot write MP4 video")
-
-    def write(self, frame: np.ndarray) -> None:
-        self._writer.write(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
-
-    def close(self) -> None:
-        self._writer.release()
-
-    def abort(self) -> None:
-        self._writer.release()
-
-
-class _GifWriter:
-    """Frames quantised to one fixed 256-colour palette, spooled to an anonymous temporary file (a long GIF does not
-    sit in memory), written by Pillow on close. GIF delays are whole hundredths of a second: they alternate so that
-    the video keeps its rate on average."""
-
-    codec = "gif"
-
-    def __init__(self, tmp: Path, size: tuple[int, int], fps: float, path: Path, source: str):
-        from PIL import Image  # matplotlib's dependency: always installed with morphbench
-
-        self._image, self._tmp, self._size, self._fps = Image, tmp, size, fps
-        self._palette = Image.new("P", (1, 1))
-        self._palette.putpalette(_palette())
-        self._spool = tempfile.TemporaryFile()
-        self._count = 0
-
-    def write(self, frame: np.ndarray) -> None:
-        image = self._image.fromarray(frame, "RGB").quantize(palette=self._palette, dither=self._image.Dither.NONE)
-        self._spool.write(image.tobytes())
-        self._count += 1
-
-    def close(self) -> None:
-        n, (width, height) = self._count, self._size
-        ends = np.round(np.arange(1, n + 1) * 100 / self._fps).astype(int)  # cumulative, in hundredths of a second
-        delays = (np.diff(ends, prepend=0) * 10).tolist()  # ms, multiples of 10
-        palette = _palette()
-        self._spool.seek(0)
-
-        def frames():
-            for _ in range(n):
-                image = self._image.frombytes("P", (width, height), self._spool.read(width * height))
-                image.putpalette(palette)
-                yield image
-
-        images = frames()
-        first = next(images)
-        first.save(self._tmp, format="GIF", save_all=True, append_images=images, duration=delays, loop=0,
-                   optimize=False)
-
-    def abort(self) -> None:
-        self._spool.close()
-
-
-def _palette() -> list[int]:
-    """256 RGB entries: a 6 x 6 x 6 colour cube and 40 greys (the ground and the dummies are grey)."""
-    levels = [0, 51, 102, 153, 204, 255]
-    cube = [(r, g, b) for r in levels for g in levels for b in levels]
-    greys = [(round(v), round(v), round(v)) for v in np.linspace(4, 250, 40)]
-    return [channel for colour in cube + greys for channel in colour]
-
-
-@contextlib.contextmanager
-def _quiet_stderr():
-    """Silence the process's standard error (file descriptor 2, where FFmpeg writes) for the duration."""
-    try:
-        fd = sys.stderr.fileno()
-    except (AttributeError, OSError, ValueError):
-        yield
-        return
-    sys.stderr.flush()
-    saved = os.dup(fd)
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, fd)
-        yield
-    finally:
-        os.dup2(saved, fd)
-        os.close(saved)
-        os.close(devnull)

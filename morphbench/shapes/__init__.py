@@ -1,7 +1,8 @@
 """Morphologies: the assembly as validated plain data, loaded from the TOML files in ``shapes/``."""
 
 from morphbench.shapes.checks import check_shape, components, is_connected
-from morphbench.shapes.export import body_mesh, draw, export_scene, mass_properties, scene
+from morphbench.shapes.drawing import draw
+from morphbench.shapes.export import export_scene, scene
 from morphbench.shapes.generators import CustomLink, CustomUnit, chain, custom, grid, lattice, site_position
 from morphbench.shapes.loader import (
     GENERATORS,
@@ -11,6 +12,7 @@ from morphbench.shapes.loader import (
     read_toml,
     shape_from_table,
 )
+from morphbench.shapes.meshes import body_mesh, mass_properties
 from morphbench.shapes.model import Body, Link, Shape
 from morphbench.shapes.transforms import cut, cut_apart, pieces, remove_links, rotate, shuffle
 

@@ -100,11 +100,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 from pathlib import Path
 from typing import Any
 
 from morphbench.errors import ConfigError
+from morphbench.files import read_toml
 from morphbench.params import ActuatorParams, DummyParams, UnitParams
 from morphbench.shapes.checks import check_shape
 from morphbench.shapes.export import PRIMITIVES, check_mesh
@@ -146,20 +146,6 @@ def load_shape(path: str | Path) -> Shape:
     """Load and validate one morphology file."""
     path = Path(path)
     return shape_from_table(read_toml(path, "morphology file"), source=str(path), default_name=path.stem)
-
-
-def read_toml(path: Path, what: str) -> dict[str, Any]:
-    """A TOML file's table; a missing, unreadable or malformed file is a ConfigError naming it."""
-    try:
-        text = path.read_text(encoding="utf-8")  # TOML is UTF-8 whatever the locale
-    except FileNotFoundError:
-        raise ConfigError(path, "(file)", f"an existing {what} (.toml)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(path, "(file)", f"a readable UTF-8 TOML file ({exc})") from None
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(path, "(syntax)", f"valid TOML ({exc})") from None
 
 
 def shape_from_table(table: dict[str, Any], *, source: str, default_name: str = "shape") -> Shape:
