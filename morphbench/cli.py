@@ -6,37 +6,19 @@ Bad input exits with status 2 and one line naming the file or option, the key an
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
 
 from morphbench.errors import ConfigError
-from morphbench.params import PHYSICS_PRESETS, SENSOR_KINDS, LearnerParams, SensorParams
+from morphbench.params import (COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, SENSOR_KINDS, STEPS, EnvironmentParams,
+                               LearnerParams, SensorParams, field_option, option_type)
 from morphbench.shapes.cli import add_shapes_commands
 from morphbench.bench import add_bench_commands
 from morphbench.render import VideoRecorder, add_render_arguments, render_run, video_params_from_args
 
 EXIT_BAD_INPUT = 2
-
-
-def _number(low: float, high: float = math.inf, *, low_inclusive: bool = False, integer: bool = False):
-    """An argparse type: a finite number (or integer) in the given range, with a message that says the range."""
-    kind = "an integer" if integer else "a number"
-    bound = f"{'>=' if low_inclusive else '>'} {low:g}" + (f" and <= {high:g}" if math.isfinite(high) else "")
-
-    def parse(text: str):
-        try:
-            value = int(text) if integer else float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {kind} {bound}, got {text!r}") from None
-        ok = math.isfinite(value) and (value >= low if low_inclusive else value > low) and value <= high
-        if not ok:
-            raise argparse.ArgumentTypeError(f"expected {kind} {bound}, got {text!r}")
-        return value
-
-    return parse
 
 
 class _Parser(argparse.ArgumentParser):
@@ -56,16 +38,17 @@ def _parser() -> argparse.ArgumentParser:
                      help="a morphology file (shapes/chain-3.toml) or a run configuration (examples/s6-damage.toml)")
     # Options default to None: given ones override the file, the others leave it as it is.
     run.add_argument("--learner", help="thermal, flaky, random (no learning) or a plug-in package.module:Class")
-    run.add_argument("--steps", type=_number(0, low_inclusive=True, integer=True),
-                     help="learning steps after the initial measurement (default 100)")
+    run.add_argument("--steps", type=option_type(STEPS), help="learning steps after the initial measurement (default 100)")
     learner, sensor = LearnerParams(), SensorParams()
-    run.add_argument("--seed", type=_number(0, low_inclusive=True, integer=True), help="run seed (default 0)")
-    run.add_argument("--temperature", type=_number(0), help=f"T in mm/cycle (default {learner.temperature:g})")
-    run.add_argument("--step-size", type=_number(0, 1), help=f"delta_s in cycles (default {learner.step_size:g})")
-    run.add_argument("--cycles-per-step", type=_number(1, low_inclusive=True, integer=True),
+    run.add_argument("--seed", type=option_type(SEED), help="run seed (default 0)")
+    run.add_argument("--temperature", type=field_option(LearnerParams, "temperature"),
+                     help=f"T in mm/cycle, 0 greedy, inf accepts every trial (default {learner.temperature:g})")
+    run.add_argument("--step-size", type=field_option(LearnerParams, "step_size"),
+                     help=f"delta_s in cycles (default {learner.step_size:g})")
+    run.add_argument("--cycles-per-step", type=field_option(LearnerParams, "cycles_per_step"),
                      help=f"n_act, actuation cycles per learning step (default {learner.cycles_per_step})")
     run.add_argument("--sensor", choices=SENSOR_KINDS, help=f"how units measure their motion (default {sensor.kind})")
-    run.add_argument("--noise", type=_number(0, low_inclusive=True),
+    run.add_argument("--noise", type=field_option(EnvironmentParams, "noise"),
                      help="Gaussian measurement noise, mm/cycle (default 0)")
     _add_physics(run, default=None)
     run.add_argument("--out", help="output directory (default runs/NAME-LEARNER-seedS)")
@@ -83,14 +66,14 @@ def _parser() -> argparse.ArgumentParser:
 
     scan = sub.add_parser("scan", help="Ubar at fixed phases over all phase differences (no learning)")
     scan.add_argument("shape")
-    scan.add_argument("--resolution", type=_number(1, low_inclusive=True, integer=True), default=20,
+    scan.add_argument("--resolution", type=option_type(COUNT), default=20,
                       help="points per phase axis (default %(default)s)")
-    scan.add_argument("--samples", type=_number(1, low_inclusive=True, integer=True),
+    scan.add_argument("--samples", type=option_type(COUNT),
                       help="random phase vectors for 4 or more units (default resolution^2)")
-    scan.add_argument("--cycles", type=_number(1, low_inclusive=True, integer=True), default=None,
+    scan.add_argument("--cycles", type=option_type(COUNT), default=None,
                       help="cycles measured per point")
-    scan.add_argument("--seed", type=_number(0, low_inclusive=True, integer=True), default=0)
-    scan.add_argument("--workers", type=_number(1, low_inclusive=True, integer=True), default=1)
+    scan.add_argument("--seed", type=option_type(SEED), default=0)
+    scan.add_argument("--workers", type=option_type(COUNT), default=1)
     _add_physics(scan, default="default")
     scan.set_defaults(func=_cmd_scan)
     add_shapes_commands(sub)
@@ -102,7 +85,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _add_physics(parser: argparse.ArgumentParser, default: str | None) -> None:
-    parser.add_argument("--physics", choices=sorted(PHYSICS_PRESETS), default=default,
+    parser.add_argument("--physics", choices=PHYSICS_PRESET.values, default=default,
                         help="physics: default (quasistatic on the ground, fast for stacks), fast (PyBullet), reference "
                              "(PyBullet, finer) or quasistatic (springs and friction without inertia, exact; one layer "
                              "on the ground)")

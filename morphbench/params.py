@@ -7,26 +7,239 @@ The defaults are calibrated on the converged physics of a chain (the quasi-stati
 scan has the paper's shape (a forward maximum of about +4.5 mm/cycle near a phase difference of 0.4, a backward
 minimum of about -4.5 near 0.6, no flat stretch) and 2-unit Thermal learners find the peak within about 20 steps;
 docs/calibration.md says why each default is what it is, docs/fidelity.md has the figures.
+
+Each field declares its allowed values beside it (``param(default, rule, unit)``: a ``Range``, ``Choices`` or type),
+and that declaration is the only one: ``check`` / ``check_params`` serve every file format (morphology files, run
+configurations, suites, through ``morphbench.shapes.params_from_table``) and the API (learners, sensors, ground and
+video check their parameters when built), ``field_option`` / ``option_type`` build the command-line option types.
+A value is accepted or refused the same way everywhere, with one message: ``SOURCE: KEY: expected ..., got ...``.
 """
 
 from __future__ import annotations
 
+import argparse
+import dataclasses
+import math
+import numbers
 from dataclasses import dataclass, field
+from typing import Any, Literal, get_args
+
+from morphbench.errors import ConfigError
+
+# --- what a value may be: declared once per field, checked the same way in files, options and the API -----------
+
+
+@dataclass(frozen=True)
+class Range:
+    """An interval of numbers. An infinite end is allowed only if its side is inclusive: ``Range(0)`` is a finite
+    number >= 0, ``Range(0, math.inf, high_inclusive=True)`` also takes inf."""
+
+    low: float = -math.inf
+    high: float = math.inf
+    low_inclusive: bool = True
+    high_inclusive: bool = False
+    integer: bool = False
+    """only integers (never a bool, never 2.0)."""
+    even: bool = False
+    """only even integers."""
+
+    def accepts(self, value: Any) -> bool:
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral if self.integer else numbers.Real):
+            return False
+        above = value >= self.low if self.low_inclusive else value > self.low  # NaN fails both
+        below = value <= self.high if self.high_inclusive else value < self.high
+        return above and below and not (self.even and value % 2)
+
+    def describe(self) -> str:
+        kind = ("an even integer" if self.even else "an integer") if self.integer else "a number"
+        if math.isfinite(self.low) and math.isfinite(self.high):
+            left, right = "[" if self.low_inclusive else "(", "]" if self.high_inclusive else ")"
+            return f"{kind} in {left}{self.low:g}, {self.high:g}{right}"
+        takes_inf = (self.low_inclusive and self.low == -math.inf) or (self.high_inclusive and self.high == math.inf)
+        if math.isfinite(self.low):
+            bound = f" {'>=' if self.low_inclusive else '>'} {self.low:g}"
+        elif math.isfinite(self.high):
+            bound = f" {'<=' if self.high_inclusive else '<'} {self.high:g}"
+        else:
+            bound = ""
+        if takes_inf:
+            return f"{kind}{bound} or inf"
+        return f"{kind}{bound}" if self.integer else f"a finite number{bound}"
+
+    def normalize(self, value: Any) -> Any:
+        return int(value) if self.integer else float(value)
+
+    def parse(self, text: str) -> Any:
+        return int(text) if self.integer else float(text)
+
+
+@dataclass(frozen=True)
+class Choices:
+    """One of a few strings (the values users write)."""
+
+    values: tuple[str, ...]
+
+    def accepts(self, value: Any) -> bool:
+        return isinstance(value, str) and value in self.values
+
+    def describe(self) -> str:
+        return f"one of {', '.join(self.values)}"
+
+    def normalize(self, value: Any) -> Any:
+        return value
+
+    def parse(self, text: str) -> Any:
+        return text
+
+
+@dataclass(frozen=True)
+class OfType:
+    """Any value of one type: a flag or a free string."""
+
+    type: type
+    description: str
+
+    def accepts(self, value: Any) -> bool:
+        return isinstance(value, self.type)
+
+    def describe(self) -> str:
+        return self.description
+
+    def normalize(self, value: Any) -> Any:
+        return value
+
+
+@dataclass(frozen=True)
+class StepSpan:
+    """None, or learning steps (first, last) inclusive with 0 <= first <= last, last None for 'to the end'."""
+
+    def accepts(self, value: Any) -> bool:
+        if value is None:
+            return True
+        if not (isinstance(value, (tuple, list)) and len(value) == 2):
+            return False
+        first, last = value
+        step = Range(0, integer=True)
+        return step.accepts(first) and (last is None or (step.accepts(last) and last >= first))
+
+    def describe(self) -> str:
+        return "None or (first, last) learning steps with 0 <= first <= last (last None: to the end)"
+
+    def normalize(self, value: Any) -> Any:
+        return value if value is None else tuple(value)
+
+
+Rule = Range | Choices | OfType | StepSpan
+
+POSITIVE = Range(0, low_inclusive=False)
+"""a finite number > 0."""
+NON_NEGATIVE = Range(0)
+"""a finite number >= 0."""
+FINITE = Range(low_inclusive=False)
+"""any finite number."""
+COUNT = Range(1, integer=True)
+"""an integer >= 1."""
+NATURAL = Range(0, integer=True)
+"""an integer >= 0 (seeds, cycles that may be none)."""
+BOOL = OfType(bool, "true or false")
+TEXT = OfType(str, "a string")
+
+STEPS = NATURAL
+"""learning steps of a run after the initial measurement (RunConfig.steps, a suite's steps, --steps)."""
+SEED = NATURAL
+"""a run's seed (RunConfig.seed, a suite's seeds, --seed)."""
+
+
+def param(default: Any, rule: Rule, unit: str = "") -> Any:
+    """A dataclass field with its allowed values (``rule``) and the unit its messages name."""
+    return field(default=default, metadata={"rule": rule, "unit": unit})
+
+
+def rule_of(owner: Any, name: str) -> tuple[Rule, str]:
+    """The rule and unit of field ``name`` of a parameter dataclass (class or instance)."""
+    for f in dataclasses.fields(owner):
+        if f.name == name:
+            return f.metadata["rule"], f.metadata["unit"]
+    raise KeyError(f"{owner.__name__ if isinstance(owner, type) else type(owner).__name__} has no field {name!r}")
+
+
+def expected(rule: Rule, unit: str = "") -> str:
+    """What a message says was expected: ``a number in [0, 1] (cycles)``."""
+    return rule.describe() + (f" ({unit})" if unit else "")
+
+
+def check(owner: Any, name: str, value: Any, source: str, key: str | None = None) -> Any:
+    """``value`` for field ``name`` of the parameter dataclass ``owner`` (as a float for a real-valued field), or a
+    ConfigError ``SOURCE: KEY: expected ..., got ...`` (``key`` defaults to the field's name)."""
+    return check_rule(*rule_of(owner, name), value, source, key or name)
+
+
+def check_rule(rule: Rule, unit: str, value: Any, source: str, key: str) -> Any:
+    """``value`` if ``rule`` accepts it (normalised), else ConfigError naming ``source`` and ``key``."""
+    if not rule.accepts(value):
+        raise ConfigError(source, key, expected(rule, unit), value)
+    return rule.normalize(value)
+
+
+def check_params(params: Any, source: str, prefix: str = "") -> Any:
+    """``params`` if every field (and every field of a nested parameter dataclass) is allowed, else ConfigError
+    naming the first bad one (``optical.frame_rate``)."""
+    for f in dataclasses.fields(params):
+        value = getattr(params, f.name)
+        if dataclasses.is_dataclass(value):
+            check_params(value, source, f"{prefix}{f.name}.")
+        else:
+            check_rule(f.metadata["rule"], f.metadata["unit"], value, source, prefix + f.name)
+    return params
+
+
+def option_type(rule: Rule, unit: str = ""):
+    """An argparse ``type=`` that accepts what ``rule`` accepts, with the same message as files get."""
+
+    def parse(text: str) -> Any:
+        try:
+            value = rule.parse(text)
+        except ValueError:
+            value = None
+        if value is None or not rule.accepts(value):
+            raise argparse.ArgumentTypeError(f"expected {expected(rule, unit)}, got {text!r}")
+        return rule.normalize(value)
+
+    return parse
+
+
+def field_option(owner: Any, name: str):
+    """The argparse ``type=`` of field ``name`` of a parameter dataclass."""
+    return option_type(*rule_of(owner, name))
+
+
+SensorKind = Literal["optical", "camera", "ideal"]
+SENSOR_KINDS: tuple[str, ...] = get_args(SensorKind)
+DamageMode = Literal["no-inflate", "stuck", "dead"]
+DAMAGE_MODES: tuple[str, ...] = get_args(DamageMode)
+"""no-inflate: the needle is gone, the bellows cannot extend but pump, vibration and learner go on; stuck: the
+bellows keeps its length; dead: the unit stops everything (pump, vibration, learner)."""
+InitialMemory = Literal["measure", "-inf", "zero"]
+INITIAL_MEMORY_CHOICES: tuple[str, ...] = get_args(InitialMemory)
+PhysicsBackend = Literal["auto", "pybullet", "quasistatic"]
+PHYSICS_BACKENDS: tuple[str, ...] = get_args(PhysicsBackend)
+
+# --- the parameters ------------------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True, kw_only=True)
 class UnitParams:
     """One active unit: a rigid box sliding on the ground."""
 
-    length: float = 0.060
+    length: float = param(0.060, POSITIVE, "m")
     """m, extent along the unit's forward axis (the actuator axis)."""
-    width: float = 0.040
+    width: float = param(0.040, POSITIVE, "m")
     """m, extent across the forward axis."""
-    height: float = 0.030
+    height: float = param(0.030, POSITIVE, "m")
     """m, vertical extent."""
-    mass: float = 0.050
+    mass: float = param(0.050, POSITIVE, "kg")
     """kg, mass of the whole unit (body, pump, battery)."""
-    friction: float = 0.5
+    friction: float = param(0.5, NON_NEGATIVE)
     """Coulomb friction coefficient against the ground (the ground itself is 1.0; Bullet multiplies the two)."""
 
 
@@ -39,9 +252,9 @@ class DummyParams:
     makes the 2-unit curve antisymmetric and leaves even chains in a friction tie at equal phases.
     """
 
-    mass: float = 0.050
+    mass: float = param(0.050, POSITIVE, "kg")
     """kg."""
-    friction: float = 0.7
+    friction: float = param(0.7, NON_NEGATIVE)
     """Coulomb friction coefficient against the ground."""
 
 
@@ -55,37 +268,37 @@ class ActuatorParams:
     by the stroke, loaded it gives way by force / stiffness. Its force is capped at ``max_force``.
     """
 
-    stroke: float = 0.0105
+    stroke: float = param(0.0105, POSITIVE, "m")
     """m, extension at full pressure with no load. It scales the gait: 10.5 mm puts the quasi-static 2-unit
     curve's peak at +4.7 mm/cycle, the paper's 4.5 (docs/fidelity.md)."""
-    rest_gap: float = 0.010
+    rest_gap: float = param(0.010, POSITIVE, "m")
     """m, gap between the two units' faces when the bellows is empty."""
-    stiffness: float = 300.0
+    stiffness: float = param(300.0, POSITIVE, "N/m")
     """N/m, axial stiffness of the bellows."""
-    damping: float = 2.0
+    damping: float = param(2.0, POSITIVE, "N s/m")
     """N s/m, axial damping of the bellows."""
-    max_force: float = 5.0
+    max_force: float = param(5.0, POSITIVE, "N")
     """N, the largest force the bellows exerts along its axis."""
-    shear_stiffness: float = 100.0
+    shear_stiffness: float = param(100.0, POSITIVE, "N/m")
     """N/m, stiffness of a link against its two bodies sliding past each other across its axis (every link, passive
     ones too). A bellows is soft across as well as along; stiffer links need smaller PyBullet steps (docs/fidelity.md)."""
-    shear_damping: float = 0.3
+    shear_damping: float = param(0.3, POSITIVE, "N s/m")
     """N s/m, damping of that shear motion (PyBullet only: the quasi-static model has no rates)."""
-    bending_stiffness: float = 0.1
+    bending_stiffness: float = param(0.1, POSITIVE, "N m/rad")
     """N m/rad, stiffness of a link against its two bodies turning relative to each other across its axis: a body's
     friction torque (about 0.005 N m) bends a link by about 3 degrees."""
-    twist_stiffness: float = 0.05
+    twist_stiffness: float = param(0.05, POSITIVE, "N m/rad")
     """N m/rad, stiffness against the two bodies turning relative to each other about the link's axis (PyBullet
     only: the planar model has no twist)."""
-    rotational_damping: float = 2e-4
+    rotational_damping: float = param(2e-4, POSITIVE, "N m s/rad")
     """N m s/rad, damping of the relative rotation (PyBullet only)."""
-    tau_inflate: float = 0.3
+    tau_inflate: float = param(0.3, POSITIVE, "s")
     """s, pressure time constant while the pump runs."""
-    tau_vent: float = 0.3
+    tau_vent: float = param(0.3, POSITIVE, "s")
     """s, pressure time constant while the bellows vents."""
-    alpha: float = 0.4
+    alpha: float = param(0.4, Range(0, 1, low_inclusive=False), "fraction of a cycle")
     """fraction of each cycle the pump runs, in (0, 1)."""
-    cycle_time: float = 2.0
+    cycle_time: float = param(2.0, POSITIVE, "s")
     """s, duration of one actuation cycle."""
 
 
@@ -93,31 +306,29 @@ class ActuatorParams:
 class PhysicsParams:
     """How the assembly's motion is computed: the backend and its integration settings."""
 
-    backend: str = "auto"
+    backend: PhysicsBackend = param("auto", Choices(PHYSICS_BACKENDS))
     """'pybullet': rigid bodies on a ground plane (morphbench.physics.world), any shape; 'quasistatic': springs and
     Coulomb friction without inertia, exact and fast, for any assembly in one layer on the ground (solved along the
     axis for a chain, morphbench.physics.quasistatic, and in the plane otherwise, morphbench.physics.planar);
     'auto': quasistatic where it applies, pybullet for stacks (and for the camera sensor, which renders a PyBullet
     scene). The quasi-static model is the limit the PyBullet world converges to (docs/fidelity.md)."""
-    timestep: float = 1 / 120
+    timestep: float = param(1 / 120, POSITIVE, "s")
     """s, physics step (quasistatic: the interval between solves; the solution depends on time only through the
     pressures)."""
-    solver_iterations: int = 10
+    solver_iterations: int = param(10, COUNT)
     """constraint solver iterations per physics step (pybullet only)."""
-    substeps: int = 1
+    substeps: int = param(1, COUNT)
     """PyBullet steps (and link-force updates) per tick (pybullet only): the links' springs are explicit, so stiffer
     links than the default, or stacks of three layers or more, need 2 or more."""
-    settle_time: float = 0.25
+    settle_time: float = param(0.25, POSITIVE, "s")
     """s, simulated before the first cycle so the units rest on the ground (pybullet only)."""
-    cone_friction: bool = True
+    cone_friction: bool = param(True, BOOL)
     """pybullet only: Bullet's implicit friction cone (True) or its pyramid of two friction directions per contact
     (False). Along a chain turned to any angle on the ground the cone is isotropic and the pyramid is not (it is
     18% slower at 30 degrees); a turning grid turns with the cone about as the planar model says, with a small
     chirality (a body twisted counter-clockwise slides a little more easily), and hardly at all with the pyramid
     (docs/fidelity.md, "In the plane")."""
 
-
-PHYSICS_BACKENDS = ("auto", "pybullet", "quasistatic")
 
 DEFAULT_PHYSICS = PhysicsParams()
 """The default: the quasi-static model for shapes on the ground, the PyBullet world at the fast setting for stacks."""
@@ -132,33 +343,31 @@ QUASISTATIC_PHYSICS = PhysicsParams(backend="quasistatic", timestep=1 / 200)
 """The inertia-free limit of the same assembly: the oracle of the PyBullet world, and a fast backend for chains."""
 
 PHYSICS_PRESETS = {"default": DEFAULT_PHYSICS, "fast": FAST_PHYSICS, "reference": REFERENCE_PHYSICS, "quasistatic": QUASISTATIC_PHYSICS}
+PHYSICS_PRESET = Choices(tuple(PHYSICS_PRESETS))
+"""a physics preset by name (a run configuration's [physics] preset, a suite's physics, --physics)."""
 
 
 @dataclass(frozen=True, kw_only=True)
 class LearnerParams:
     """Each unit's learner. Every unit gets its own copy and its own random stream."""
 
-    step_size: float = 0.1
+    step_size: float = param(0.1, Range(0, 1, high_inclusive=True), "cycles")
     """delta_s: a trial phase is the kept phase plus uniform(-1, 1) * step_size, modulo 1."""
-    temperature: float = 0.5
+    temperature: float = param(0.5, Range(0, math.inf, high_inclusive=True), "mm/cycle")
     """T, mm/cycle: a worse trial (lower velocity by d) is accepted with probability exp(-d / T). Chosen as the
     spec asks: a noiseless 3-unit Thermal run accepts about 25% of trials once learned (docs/fidelity.md)."""
-    cycles_per_step: int = 2
+    cycles_per_step: int = param(2, COUNT, "cycles")
     """n_act: actuation cycles per learning step; a measurement is the displacement over them / n_act."""
-    warmup_cycles: int = 1
+    warmup_cycles: int = param(1, NATURAL, "cycles")
     """cycles the units run at their initial phases before the first measurement, so that step 0 does not
     measure the start from rest (the first extension from rest is a one-off transient of several mm)."""
-    discard_cycles: int = 1
+    discard_cycles: int = param(1, NATURAL, "cycles")
     """cycles run after each phase change before the measurement starts. Without one, a unit's 2-cycle measurement
     also holds the change of its own offset in the chain between the window's edges, several mm/cycle after a phase
     change; the paper (whose velocity calculation is in a supplement we lack) reaches its first result only
     without that edge effect (docs/fidelity.md, S1 with 0 and 1)."""
-    initial_memory: str = "measure"
+    initial_memory: InitialMemory = param("measure", Choices(INITIAL_MEMORY_CHOICES))
     """what the memory holds before the first trial: 'measure' (velocity at the initial phase), '-inf' or 'zero'."""
-
-
-INITIAL_MEMORY_CHOICES = ("measure", "-inf", "zero")
-
 
 
 
@@ -167,33 +376,28 @@ class FrictionFieldParams:
     """Ground friction that varies with position: mu(x, y) = mu0 (1 + amplitude f(x, y)), f a smooth periodic random
     field with values in [-1, 1], the same for every body (mu0 is the body's own friction)."""
 
-    amplitude: float = 0.0
+    amplitude: float = param(0.0, Range(0, 1))
     """a, in [0, 1): 0 is a uniform ground; the spec suggests 0.2-0.4."""
-    correlation_length: float = 0.06
+    correlation_length: float = param(0.06, POSITIVE, "m")
     """m, shortest wavelength in the field (about one unit)."""
-    period: float = 2.0
+    period: float = param(2.0, POSITIVE, "m")
     """m, the field repeats with this period along x (and y): the length of the paper's circular track, unrolled."""
-    two_d: bool = False
+    two_d: bool = param(False, BOOL)
     """false: the field varies along x only (a track); true: along x and y (a plane)."""
-    seed: int = 1
+    seed: int = param(1, NATURAL)
     """the same seed gives the same field."""
-
-
-DAMAGE_MODES = ("no-inflate", "stuck", "dead")
-"""no-inflate: the needle is gone, the bellows cannot extend but pump, vibration and learner go on; stuck: the
-bellows keeps its length; dead: the unit stops everything (pump, vibration, learner)."""
 
 
 @dataclass(frozen=True, kw_only=True)
 class EnvironmentParams:
     """The world the robot runs in; events can change some of it during a run (morphbench.experiment.events)."""
 
-    friction_scale: float = 1.0
+    friction_scale: float = param(1.0, POSITIVE)
     """multiplies every body's friction (a friction drop is an event that changes it)."""
-    vibration: float = 1.0
+    vibration: float = param(1.0, POSITIVE)
     """factor on an active unit's friction while its own pump runs (the pump shakes the unit); 1 is no vibration,
     the spec suggests 0.8. The dummy never vibrates."""
-    noise: float = 0.0
+    noise: float = param(0.0, NON_NEGATIVE, "mm/cycle")
     """mm/cycle, standard deviation of Gaussian noise added to each measured velocity, on top of the sensor's own."""
     friction_field: FrictionFieldParams = field(default_factory=FrictionFieldParams)
     ground: GroundParams = field(default_factory=lambda: GroundParams())
@@ -205,22 +409,22 @@ class GroundParams:
     """The textured ground that optical sensors look at: one tile, procedural or from an image file, centred on the
     world origin and repeated over the whole plane (morphbench.sensing.ground)."""
 
-    image: str = ""
+    image: str = param("", TEXT)
     """path of an image file used as the tile, read in greyscale; '' makes a procedural tile from the fields below."""
-    seed: int = 1
+    seed: int = param(1, NATURAL)
     """seed of the procedural tile: the same seed gives the same ground."""
-    grain: float = 0.003
+    grain: float = param(0.003, POSITIVE, "m")
     """m, feature size of the procedural tile: standard deviation of the Gaussian that smooths its white noise
     (2 pixels of the default optical sensor, which Lucas-Kanade tracks best)."""
-    contrast: float = 0.5
+    contrast: float = param(0.5, Range(0, 1, low_inclusive=False, high_inclusive=True))
     """in (0, 1], of the procedural tile: its grey levels have a standard deviation of contrast / 6 of the full range
     around mid-grey, so +-3 standard deviations span this fraction of black to white."""
-    resolution: float = 0.0015
+    resolution: float = param(0.0015, POSITIVE, "m")
     """m, ground size of one tile pixel, for a procedural tile and an image file alike (the default is the optical
     sensor's pixel size)."""
-    length: float = 2.0
+    length: float = param(2.0, POSITIVE, "m")
     """m, procedural tile's extent along the world x axis (an image's extent is its size times the resolution)."""
-    width: float = 0.5
+    width: float = param(0.5, POSITIVE, "m")
     """m, procedural tile's extent along the world y axis."""
 
 
@@ -236,23 +440,24 @@ class OpticalParams:
     would move more pixels per frame), and the cost grows with the frame rate.
     """
 
-    frame_rate: float = 8.0
+    frame_rate: float = param(8.0, POSITIVE, "Hz")
     """Hz, frames per second: the sensor's sample rate."""
-    patch_size: int = 32
-    """px, side of the square image."""
-    pixel_size: float = 0.0015
+    patch_size: int = param(32, Range(16, 256, high_inclusive=True, integer=True), "px")
+    """px, side of the square image: at least 16 (Lucas-Kanade needs a window of 7 px or more and room for it to
+    move), at most 256 (a bigger one would cost more than the physics)."""
+    pixel_size: float = param(0.0015, POSITIVE, "m")
     """m, ground size of one image pixel when the sensor looks straight down (its nominal resolution)."""
-    noise: float = 0.01
+    noise: float = param(0.01, NON_NEGATIVE, "fraction of the grey range")
     """standard deviation of the Gaussian noise added to every pixel, as a fraction of the black-to-white range."""
-    blur: float = 0.0
+    blur: float = param(0.0, NON_NEGATIVE, "px")
     """px, standard deviation of a Gaussian blur of the optics, applied before the noise (0: none)."""
-    liftoff_height: float = 0.0015
+    liftoff_height: float = param(0.0015, POSITIVE, "m")
     """m, above this height over the ground the sensor reports no motion, as a mouse does when lifted."""
-    mount_x: float = 0.0
+    mount_x: float = param(0.0, FINITE, "m")
     """m, the sensor's position along the unit's forward axis, from the unit's centre."""
-    mount_y: float = 0.0
+    mount_y: float = param(0.0, FINITE, "m")
     """m, the sensor's position along the unit's left axis, from the unit's centre."""
-    mount_depth: float = 0.015
+    mount_depth: float = param(0.015, FINITE, "m")
     """m, how far below the unit's centre (along the unit's own down axis) the sensor sits: half the unit's height
     puts it on the underside, where a unit resting on the ground has zero lift."""
 
@@ -261,18 +466,20 @@ class OpticalParams:
 class SensorParams:
     """How each unit measures its own displacement along its own forward axis."""
 
-    kind: str = "optical"
+    kind: SensorKind = param("optical", Choices(SENSOR_KINDS))
     """'optical': an optical-flow sensor under the unit looking at the textured ground (OpticalParams), its images
     cut out of the texture; 'camera': the same sensor with its images rendered by PyBullet's own camera (about 60x
     slower, for validation); 'ideal': the unit's true displacement (ground truth, also recorded as u_true in every
     run)."""
-    sample_period: float = 0.125
+    sample_period: float = param(0.125, POSITIVE, "s")
     """s, how often the ideal sensor reads the unit's pose; the ground truth of an optical run is sampled at the
     optical frame rate instead, so both read the same poses."""
     optical: OpticalParams = field(default_factory=lambda: OpticalParams())
 
 
-SENSOR_KINDS = ("optical", "camera", "ideal")
+
+_FRAME_PIXELS = Range(16, 4096, high_inclusive=True, integer=True, even=True)
+"""px, a video frame's side (even: the codecs need it)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -280,27 +487,27 @@ class VideoParams:
     """An off-screen video of a run (morphbench.render): what it shows, how big, how fast. The container follows the
     output file's suffix: .mp4 (H.264 where this OpenCV build can write it, else MPEG-4 part 2) or .gif."""
 
-    width: int = 640
+    width: int = param(640, _FRAME_PIXELS, "px")
     """px, frame width (an even number)."""
-    height: int = 360
+    height: int = param(360, _FRAME_PIXELS, "px")
     """px, frame height (an even number)."""
-    fps: float = 30.0
+    fps: float = param(30.0, Range(0, 240, low_inclusive=False, high_inclusive=True), "frames per second")
     """frames per second of the output video (at most 50 for a GIF: browsers slow faster GIFs down)."""
-    speed: float = 1.0
+    speed: float = param(1.0, POSITIVE, "simulated seconds per video second")
     """playback speed: simulated seconds per video second (> 1 is a time-lapse); a frame every speed / fps
     simulated seconds."""
-    steps: tuple[int, int | None] | None = None
+    steps: tuple[int, int | None] | None = param(None, StepSpan())
     """learning steps to show, (first, last) inclusive, last None for 'to the end'; None shows every step. Step 0
     includes the warm-up before it."""
-    distance: float = 0.0
+    distance: float = param(0.0, NON_NEGATIVE, "m; 0 fits the assembly")
     """m, from the camera to the point it looks at; 0 picks one that fits the whole assembly in the frame."""
-    pitch: float = -30.0
+    pitch: float = param(-30.0, Range(-89, 0, high_inclusive=True), "degrees; negative looks down")
     """degrees, camera elevation: 0 looks horizontally, -90 straight down. The camera looks along +y, so forward (+x)
     motion runs left to right in the image."""
-    follow: bool = True
+    follow: bool = param(True, BOOL)
     """True: the camera follows the assembly (its mean body position, smoothed); False: it stays where it started."""
-    follow_time: float = 4.0
+    follow_time: float = param(4.0, POSITIVE, "simulated seconds")
     """s of simulated time, time constant of the camera's smoothing (two cycles by default, so it does not shake with
     each pump stroke)."""
-    overlay: bool = True
+    overlay: bool = param(True, BOOL)
     """draw simulated time, learning step, Ubar and each unit's phase on the frames."""

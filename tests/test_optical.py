@@ -123,7 +123,7 @@ def test_bad_texture_file_gives_config_error(tmp_path):
     "field, value, message",
     [
         ("contrast", 1.5, r"contrast: expected a number in \(0, 1\], got 1.5"),
-        ("grain", 0.0, r"grain: expected a finite number > 0 \(metres\), got 0.0"),
+        ("grain", 0.0, r"grain: expected a finite number > 0 \(m\), got 0.0"),
         ("resolution", float("nan"), r"resolution: expected a finite number > 0"),
         ("seed", -1, r"seed: expected an integer >= 0, got -1"),
         ("resolution", 1e-6, r"length, width, resolution: expected a tile of 8 to 32,766 px a side and at most "
@@ -144,7 +144,7 @@ def test_bad_ground_parameters_give_config_error(field, value, message):
         ("pixel_size", -0.001, r"pixel_size: expected a finite number > 0 \(m\)"),
         ("noise", -0.1, r"noise: expected a finite number >= 0"),
         ("liftoff_height", float("inf"), r"liftoff_height: expected a finite number > 0"),
-        ("patch_size", 8, r"patch_size: expected an integer number of pixels in \[16, 256\], got 8"),
+        ("patch_size", 8, r"patch_size: expected an integer in \[16, 256\] \(px\), got 8"),
         ("mount_x", "front", r"mount_x: expected a finite number \(m\), got 'front'"),
     ],
 )

@@ -281,7 +281,7 @@ BAD = [
     ("float-at", CUSTOM_HEAD + "[[units]]\nat = [0.5, 0, 0]\n", "units[0].at", "a lattice site [i, j, k]"),
     ("long-at", CUSTOM_HEAD + "[[units]]\nat = [0, 0, 0, 0]\n", "units[0].at", "a lattice site [i, j, k]"),
     ("bool-dummy", CUSTOM_HEAD + "[[units]]\nat = [0, 0, 0]\ndummy = 1\n", "units[0].dummy", "true or false"),
-    ("negative-mass", CUSTOM_HEAD + "[[units]]\nat = [0, 0, 0]\nmass = -1\n", "units[0].mass", "a number > 0"),
+    ("negative-mass", CUSTOM_HEAD + "[[units]]\nat = [0, 0, 0]\nmass = -1\n", "units[0].mass", "a finite number > 0 (kg)"),
     ("negative-friction", CUSTOM_HEAD + "[[units]]\nat = [0, 0, 0]\nfriction = -1\n", "units[0].friction", ">= 0"),
     ("overlap", CUSTOM_HEAD + units_text((0, 0, 0), (-1, 0, 0), (0, 0, 0)) + links_text((1, 2, 1)),
      "units[2].at", "a lattice site of its own (units[0]"),

@@ -38,7 +38,7 @@ A suite file is TOML::
                                            #   measure the true velocity)
 
 Environments: ``environments`` is an axis like the others, a list of tables each read as a run configuration's
-``[environment]`` (morphbench.experiment.config.environment_from_table: friction_scale, vibration, noise and the
+``[environment]`` (morphbench.shapes.params_from_table: friction_scale, vibration, noise and the
 friction_field and ground sub-tables), inline (``environments = [{}, {friction_scale = 1.5}]``) or as
 ``[[experiment.environments]]`` tables. A table may have a ``name``: the label of the environment in the condition
 columns (``environment``); without one the label lists the table's settings (``friction_field.amplitude=0.3``, or
@@ -76,8 +76,7 @@ from typing import Any
 import numpy as np
 
 from morphbench import params as P
-from morphbench.errors import ConfigError, require_integer, require_number
-from morphbench.experiment.config import environment_from_table
+from morphbench.errors import ConfigError
 from morphbench.experiment.events import Event, parse_events
 from morphbench.experiment.run import RunConfig
 from morphbench.experiment.scan import DEFAULT_CYCLES, DEFAULT_DISCARD, scan_phases
@@ -299,25 +298,18 @@ def _expand_experiment(table: dict, name: str, runs: dict[str, RunSpec], ctx: _C
         _learner(learner, src, f"{where}.learners")
     learner_params = _swept_params(P.LearnerParams, table.get("learner_params", {}), src, f"{where}.learner_params",
                                    exclude=())
-    for lp in learner_params:
-        _check_learner_params(lp, src, f"{where}.learner_params")
     sensor_table = table.get("sensor", {})
     if isinstance(sensor_table, dict):
         # Suites score the true velocity and run thousands of learning runs: they measure with the ideal sensor
         # (10% cheaper than the optical one) unless told otherwise.
         sensor_table = {"kind": "ideal", **sensor_table}
     sensors = _swept_params(P.SensorParams, sensor_table, src, f"{where}.sensor", exclude=("noise",))
-    for sensor in sensors:
-        if sensor.kind not in P.SENSOR_KINDS:
-            raise ConfigError(src, f"{where}.sensor.kind", f"one of {', '.join(P.SENSOR_KINDS)}", sensor.kind)
-    noises = [require_number(v, src, f"{where}.noise", 0.0) for v in _values(table.get("noise", [0.0]), src,
-                                                                             f"{where}.noise")]
-    steps = [require_integer(v, src, f"{where}.steps", low=1) for v in _values(table.get("steps", [100]), src,
-                                                                          f"{where}.steps")]
-    physics = _values(table.get("physics", ["default"]), src, f"{where}.physics")
-    for preset in physics:
-        if preset not in P.PHYSICS_PRESETS:
-            raise ConfigError(src, f"{where}.physics", f"one of {', '.join(sorted(P.PHYSICS_PRESETS))}", preset)
+    noises = [P.check(P.EnvironmentParams, "noise", v, src, f"{where}.noise")
+              for v in _values(table.get("noise", [0.0]), src, f"{where}.noise")]
+    steps = [P.check_rule(P.STEPS, "", v, src, f"{where}.steps")
+             for v in _values(table.get("steps", [100]), src, f"{where}.steps")]
+    physics = [P.check_rule(P.PHYSICS_PRESET, "", v, src, f"{where}.physics")
+               for v in _values(table.get("physics", ["default"]), src, f"{where}.physics")]
     seeds = _seeds(table.get("seeds", [0]), src, f"{where}.seeds")
     environments = _environments(table.get("environments", [{}]), "noise" in table, src, f"{where}.environments")
     events = {id(shape): _events(table.get("events", []), shape, steps, src, f"{where}.events") for shape in shapes}
@@ -399,7 +391,7 @@ def _environments(value: Any, noise_axis: bool, src: str, key: str) -> list[tupl
         if "noise" in table and noise_axis:
             raise ConfigError(src, f"{where}.noise", "no noise here when the experiment has a 'noise' axis: give "
                                                      "measurement noise in one place or the other", table["noise"])
-        environment = environment_from_table(table, src, where)
+        environment = params_from_table(P.EnvironmentParams, table, src, where)
         label = name or _environment_label(table)
         if label in labels:
             raise ConfigError(src, f"{where}.name", "a label no other environment of the experiment has (give each "
@@ -472,23 +464,21 @@ def _expand_scan(table: dict, index: int, ctx: _Context) -> ScanSpec:
     if shape.n_units < 2:
         raise ConfigError(src, f"{where}.shape", "a shape with at least 2 active units to scan phase differences",
                           table["shape"])
-    resolution = require_integer(table.get("resolution", 20), src, f"{where}.resolution", low=1)
+    resolution = P.check_rule(P.COUNT, "", table.get("resolution", 20), src, f"{where}.resolution")
     samples = table.get("samples")
     if samples is not None:
-        samples = require_integer(samples, src, f"{where}.samples", low=1)
-    cycles = require_integer(table.get("cycles", DEFAULT_CYCLES), src, f"{where}.cycles", low=1)
-    discard = require_integer(table.get("discard", DEFAULT_DISCARD), src, f"{where}.discard", low=0)
-    seed = require_integer(table.get("seed", 0), src, f"{where}.seed", low=0)
-    preset = table.get("physics", "default")
-    if preset not in P.PHYSICS_PRESETS:
-        raise ConfigError(src, f"{where}.physics", f"one of {', '.join(sorted(P.PHYSICS_PRESETS))}", preset)
+        samples = P.check_rule(P.COUNT, "", samples, src, f"{where}.samples")
+    cycles = P.check_rule(P.COUNT, "", table.get("cycles", DEFAULT_CYCLES), src, f"{where}.cycles")
+    discard = P.check_rule(P.NATURAL, "", table.get("discard", DEFAULT_DISCARD), src, f"{where}.discard")
+    seed = P.check_rule(P.SEED, "", table.get("seed", 0), src, f"{where}.seed")
+    preset = P.check_rule(P.PHYSICS_PRESET, "", table.get("physics", "default"), src, f"{where}.physics")
     environment_table = table.get("environment", {})
     if not isinstance(environment_table, dict):
         raise ConfigError(src, f"{where}.environment", "a table of EnvironmentParams fields", environment_table)
     if "noise" in environment_table:
         raise ConfigError(src, f"{where}.environment.noise", "no noise in a scan's environment: scans measure the "
                                                               "true velocity", environment_table["noise"])
-    environment = environment_from_table(environment_table, src, f"{where}.environment")
+    environment = params_from_table(P.EnvironmentParams, environment_table, src, f"{where}.environment")
     name = _name(table.get("name", f"{shape.name}-r{resolution}"), src, f"{where}.name")
     phases = scan_phases(shape.n_units, resolution, samples, seed)
     sampled = shape.n_units > 3
@@ -550,14 +540,6 @@ def _swept_params(cls: type, table: Any, source: str, key: str, exclude: tuple[s
     return [params_from_table(cls, dict(zip(names, combo)), source, key) for combo in itertools.product(*swept)]
 
 
-def _check_learner_params(lp: P.LearnerParams, source: str, key: str) -> None:
-    if lp.initial_memory not in P.INITIAL_MEMORY_CHOICES:
-        raise ConfigError(source, f"{key}.initial_memory", f"one of {', '.join(P.INITIAL_MEMORY_CHOICES)}",
-                          lp.initial_memory)
-    if lp.step_size > 1:
-        raise ConfigError(source, f"{key}.step_size", "a number in (0, 1] (cycles)", lp.step_size)
-
-
 def _learner(spec: Any, source: str, key: str) -> None:
     try:
         load_learner_class(spec)
@@ -571,7 +553,7 @@ def _seeds(value: Any, source: str, key: str) -> list[int]:
             raise ConfigError(source, key, "a number of seeds >= 1 (seeds 0..n-1) or a list of distinct seeds", value)
         return list(range(value))
     if isinstance(value, list):
-        return [require_integer(v, source, key, low=0) for v in _values(value, source, key)]
+        return [P.check_rule(P.SEED, "", v, source, key) for v in _values(value, source, key)]
     raise ConfigError(source, key, "a number of seeds >= 1 (seeds 0..n-1) or a list of distinct seeds", value)
 
 

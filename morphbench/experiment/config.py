@@ -37,17 +37,20 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from morphbench.errors import ConfigError, require_integer
+from morphbench.errors import ConfigError
 from morphbench.experiment.events import parse_events
 from morphbench.experiment.run import RunConfig
 from morphbench.learning import load_learner_class
 from morphbench.params import (
+    PHYSICS_PRESET,
     PHYSICS_PRESETS,
-    SENSOR_KINDS,
+    SEED,
+    STEPS,
     EnvironmentParams,
     LearnerParams,
     PhysicsParams,
     SensorParams,
+    check_rule,
 )
 from morphbench.shapes import load_shape, params_from_table, read_toml, shape_from_table
 
@@ -77,37 +80,23 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path) -> Run
     if not isinstance(learner, str):
         raise ConfigError(source, "learner.name", "thermal, flaky, random or package.module:Class", learner)
     load_learner_class(learner)
-    sensor = params_from_table(SensorParams, _table(table, "sensor", source), source, "sensor")
-    if sensor.kind not in SENSOR_KINDS:
-        raise ConfigError(source, "sensor.kind", f"one of {', '.join(SENSOR_KINDS)}", sensor.kind)
     return RunConfig(
         shape=shape,
         learner=learner,
         learner_params=params_from_table(LearnerParams, learner_table, source, "learner"),
-        sensor=sensor,
-        environment=environment_from_table(_table(table, "environment", source), source, "environment"),
+        sensor=params_from_table(SensorParams, _table(table, "sensor", source), source, "sensor"),
+        environment=params_from_table(EnvironmentParams, _table(table, "environment", source), source, "environment"),
         events=parse_events(table.get("events", []), source, shape.n_units, len(shape.links)),
         physics=physics_from_table(_table(table, "physics", source), source, "physics"),
-        steps=require_integer(table.get("steps", RunConfig.steps), source, "steps", 0),
-        seed=require_integer(table.get("seed", RunConfig.seed), source, "seed", 0),
+        steps=check_rule(STEPS, "", table.get("steps", RunConfig.steps), source, "steps"),
+        seed=check_rule(SEED, "", table.get("seed", RunConfig.seed), source, "seed"),
     )
-
-
-def environment_from_table(table: dict[str, Any], source: str, section: str) -> EnvironmentParams:
-    """EnvironmentParams, with its friction_field and ground sub-tables."""
-    environment = params_from_table(EnvironmentParams, table, source, section)
-    if not environment.friction_field.amplitude < 1:
-        raise ConfigError(source, f"{section}.friction_field.amplitude", "a number in [0, 1)",
-                          environment.friction_field.amplitude)
-    return environment
 
 
 def physics_from_table(table: dict[str, Any], source: str, section: str) -> PhysicsParams:
     """A preset by name (``preset = "default"``), optionally with fields of PhysicsParams overriding it."""
     table = dict(table)
-    preset = table.pop("preset", "default")
-    if preset not in PHYSICS_PRESETS:
-        raise ConfigError(source, f"{section}.preset", f"one of {', '.join(PHYSICS_PRESETS)}", preset)
+    preset = check_rule(PHYSICS_PRESET, "", table.pop("preset", "default"), source, f"{section}.preset")
     overrides = params_from_table(PhysicsParams, table, source, section)
     return dataclasses.replace(PHYSICS_PRESETS[preset], **{key: getattr(overrides, key) for key in table})
 

@@ -8,13 +8,11 @@ measured velocity at that phase, in mm/cycle). A learner is never given another 
 from __future__ import annotations
 
 import math
-import numbers
 from abc import ABC, abstractmethod
 
 import numpy as np
 
-from morphbench.errors import ConfigError
-from morphbench.params import INITIAL_MEMORY_CHOICES, LearnerParams
+from morphbench.params import LearnerParams, check_params
 
 
 def wrap_phase(phase: float) -> float:
@@ -29,21 +27,6 @@ def initial_memory(params: LearnerParams) -> float | None:
     return {"measure": None, "-inf": -math.inf, "zero": 0.0}[params.initial_memory]
 
 
-def _is_number(value: object) -> bool:
-    return isinstance(value, numbers.Real) and not isinstance(value, bool)
-
-
-def check_learner_params(params: LearnerParams) -> None:
-    """Raise ConfigError on parameters no learner can run with."""
-    if params.initial_memory not in INITIAL_MEMORY_CHOICES:
-        raise ConfigError("LearnerParams", "initial_memory", f"one of {INITIAL_MEMORY_CHOICES}", params.initial_memory)
-    # step_size may be 0 (the phase never moves) and temperature may be 0 (greedy) or inf (accepts everything)
-    if not (_is_number(params.step_size) and math.isfinite(params.step_size) and params.step_size >= 0):
-        raise ConfigError("LearnerParams", "step_size", "a finite number >= 0 (fraction of a cycle)", params.step_size)
-    if not (_is_number(params.temperature) and params.temperature >= 0):  # also rejects NaN
-        raise ConfigError("LearnerParams", "temperature", "a number >= 0 (mm/cycle)", params.temperature)
-
-
 class Learner(ABC):
     """One unit's learner; sees only its own unit's measurements.
 
@@ -56,7 +39,7 @@ class Learner(ABC):
     """U_mem, mm/cycle: None before the first measurement when ``initial_memory == 'measure'``."""
 
     def __init__(self, params: LearnerParams, rng: np.random.Generator):
-        check_learner_params(params)
+        check_params(params, "LearnerParams")
         self.params = params
         self.rng = rng
         self.phase = wrap_phase(float(rng.uniform(0.0, 1.0)))

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import math
 
-from morphbench.params import VideoParams
+from morphbench.params import VideoParams, field_option
 from morphbench.render.video import check_video_params
 
 
@@ -17,13 +16,14 @@ def add_render_arguments(parser: argparse.ArgumentParser, output: bool = True) -
     group = parser.add_argument_group("video")
     if output:
         group.add_argument("--video", metavar="OUT", help="also write a video of the run to OUT (.mp4 or .gif)")
-    group.add_argument("--video-width", type=_even_pixels, default=defaults.width, metavar="PX",
+    group.add_argument("--video-width", type=field_option(VideoParams, "width"), default=defaults.width, metavar="PX",
                        help="frame width in pixels, even (default %(default)s)")
-    group.add_argument("--video-height", type=_even_pixels, default=defaults.height, metavar="PX",
+    group.add_argument("--video-height", type=field_option(VideoParams, "height"), default=defaults.height,
+                       metavar="PX",
                        help="frame height in pixels, even (default %(default)s)")
-    group.add_argument("--video-fps", type=_positive(240), default=defaults.fps, metavar="FPS",
+    group.add_argument("--video-fps", type=field_option(VideoParams, "fps"), default=defaults.fps, metavar="FPS",
                        help="frames per second of the video (default %(default)g; at most 50 for a GIF)")
-    group.add_argument("--video-speed", type=_positive(), default=defaults.speed, metavar="X",
+    group.add_argument("--video-speed", type=field_option(VideoParams, "speed"), default=defaults.speed, metavar="X",
                        help="simulated seconds per video second; > 1 is a time-lapse (default %(default)g)")
     group.add_argument("--video-steps", type=_step_range, default=defaults.steps, metavar="FIRST:LAST",
                        help="learning steps to show, inclusive: FIRST:LAST, FIRST: (to the end), :LAST or N "
@@ -35,31 +35,6 @@ def video_params_from_args(args: argparse.Namespace) -> VideoParams:
     params = VideoParams(width=args.video_width, height=args.video_height, fps=args.video_fps,
                          speed=args.video_speed, steps=args.video_steps)
     return check_video_params(params, cli=True)
-
-
-def _even_pixels(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = None
-    if value is None or not 16 <= value <= 4096 or value % 2:
-        raise argparse.ArgumentTypeError(f"expected an even integer from 16 to 4096 (pixels), got {text!r}")
-    return value
-
-
-def _positive(high: float = math.inf):
-    bound = "> 0" + (f" and <= {high:g}" if math.isfinite(high) else "")
-
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and 0 < value <= high):
-            raise argparse.ArgumentTypeError(f"expected a number {bound}, got {text!r}")
-        return value
-
-    return parse
 
 
 def _step_range(text: str) -> tuple[int, int | None]:

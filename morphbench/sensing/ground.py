@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 
 from morphbench.errors import ConfigError
-from morphbench.params import GroundParams
+from morphbench.params import GroundParams, check_params
 
 MAX_TEXTURE_PIXELS = 64_000_000
 """Largest tile, in pixels (256 MB as float32): a larger one is almost certainly a mistake of units."""
@@ -99,16 +99,7 @@ def _pixel_offsets(size_px: int) -> np.ndarray:
 
 
 def _check(params: GroundParams, source: str) -> None:
-    positive = {"resolution": params.resolution, "grain": params.grain, "length": params.length, "width": params.width}
-    for key, value in positive.items():
-        if not _finite(value) or value <= 0:
-            raise ConfigError(source, key, "a finite number > 0 (metres)", value)
-    if not _finite(params.contrast) or not 0 < params.contrast <= 1:
-        raise ConfigError(source, "contrast", "a number in (0, 1]", params.contrast)
-    if isinstance(params.seed, bool) or not isinstance(params.seed, int) or params.seed < 0:
-        raise ConfigError(source, "seed", "an integer >= 0", params.seed)
-    if not isinstance(params.image, str):
-        raise ConfigError(source, "image", "a path to an image file, or '' for a procedural texture", params.image)
+    check_params(params, source)
     if not params.image:
         shape = (round(params.width / params.resolution), round(params.length / params.resolution))
         about = f"{params.length} m x {params.width} m at {params.resolution} m/px"
@@ -121,10 +112,6 @@ def _check_size(shape: tuple[int, int], source: str, key: str, about: str) -> No
             f"a tile of {MIN_TEXTURE_PIXELS} to {MAX_REMAP_ROWS:,} px a side and at most {MAX_TEXTURE_PIXELS:,} px"
         )
         raise ConfigError(source, key, expected, f"{shape[1]} x {shape[0]} px ({about})")
-
-
-def _finite(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _procedural(params: GroundParams) -> np.ndarray:

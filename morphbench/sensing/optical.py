@@ -30,20 +30,14 @@ per frame).
 
 from __future__ import annotations
 
-import math
 
 import cv2
 import numpy as np
 
-from morphbench.errors import ConfigError
-from morphbench.params import OpticalParams
+from morphbench.params import OpticalParams, check_params
 from morphbench.sensing.base import Sensor
 from morphbench.sensing.ground import GroundTexture
 
-MIN_PATCH = 16
-"""px, smallest patch: Lucas-Kanade needs a window of at least 7 px and room for it to move."""
-MAX_PATCH = 256
-"""px, largest patch (a bigger one would cost more than the physics)."""
 MIN_COS_TILT = 0.5
 """A sensor tilted more than 60 degrees (unit on its side or upside down) sees no ground."""
 NOISE_BANK_FRAMES = 256
@@ -178,7 +172,7 @@ class OpticalSensor(Sensor):
         """``rng`` draws the image noise; ``source`` names where ``params`` came from in a ``ConfigError``."""
         if n_units < 1:
             raise ValueError(f"an optical sensor needs at least one unit, got {n_units}")
-        _check(params, source)
+        check_params(params, source)
         self.params, self.ground, self.n_units = params, ground, n_units
         self.sample_period = 1.0 / params.frame_rate
         self._pose_table = _pose_table(np.array([params.mount_x, params.mount_y, -params.mount_depth]))
@@ -290,24 +284,3 @@ class OpticalSensor(Sensor):
         # The image moves opposite to the unit. Views are ordered frame by frame, unit by unit.
         self._columns_moved -= (shifts[:, 0] * valid).reshape(-1, self.n_units).sum(axis=0)
         self._lost += (valid > tracked).reshape(-1, self.n_units).sum(axis=0)
-
-
-def _check(params: OpticalParams, source: str) -> None:
-    def number(key: str, low: float, *, inclusive: bool, unit: str) -> None:
-        value = getattr(params, key)
-        finite = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-        if not finite or value < low or (value == low and not inclusive):
-            raise ConfigError(source, key, f"a finite number {'>=' if inclusive else '>'} {low:g} ({unit})", value)
-
-    number("frame_rate", 0, inclusive=False, unit="Hz")
-    number("pixel_size", 0, inclusive=False, unit="m")
-    number("noise", 0, inclusive=True, unit="fraction of the grey range")
-    number("blur", 0, inclusive=True, unit="px")
-    number("liftoff_height", 0, inclusive=False, unit="m")
-    for key in ("mount_x", "mount_y", "mount_depth"):
-        value = getattr(params, key)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ConfigError(source, key, "a finite number (m)", value)
-    size = params.patch_size
-    if isinstance(size, bool) or not isinstance(size, int) or not MIN_PATCH <= size <= MAX_PATCH:
-        raise ConfigError(source, "patch_size", f"an integer number of pixels in [{MIN_PATCH}, {MAX_PATCH}]", size)

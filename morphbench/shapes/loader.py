@@ -105,7 +105,7 @@ from typing import Any
 
 from morphbench.errors import ConfigError
 from morphbench.files import read_toml
-from morphbench.params import ActuatorParams, DummyParams, UnitParams
+from morphbench.params import SEED, ActuatorParams, DummyParams, UnitParams, check, check_rule, expected
 from morphbench.shapes.checks import check_shape
 from morphbench.shapes.export import PRIMITIVES, check_mesh
 from morphbench.shapes.generators import MAX_BODIES, MAX_SITE, MAX_UNITS, CustomLink, CustomUnit, chain, custom, lattice
@@ -126,21 +126,6 @@ TOP_KEYS = {"name", "description", "heading", "assembly", "unit", "dummy", "actu
 UNIT_ENTRY_KEYS = {"at", "dummy", "mass", "friction", "stroke", "mesh"}
 LINK_ENTRY_KEYS = {"between", "unit", "passive"}
 TRANSFORM_KEYS = {"shuffle", "cut", "rotate"}
-
-# Allowed range of each numeric parameter: (low, high, low_inclusive). Numbers not listed must be > 0, integers >= 1.
-_RANGES = {
-    "friction": (0.0, math.inf, True),
-    "alpha": (0.0, 1.0, False),
-    "noise": (0.0, math.inf, True),
-    "amplitude": (0.0, math.inf, True),
-    "warmup_cycles": (0, math.inf, True),
-    "discard_cycles": (0, math.inf, True),
-    "seed": (0, math.inf, True),
-    "blur": (0.0, math.inf, True),
-    "mount_x": (-math.inf, math.inf, True),
-    "mount_y": (-math.inf, math.inf, True),
-}
-
 
 def load_shape(path: str | Path) -> Shape:
     """Load and validate one morphology file."""
@@ -198,7 +183,7 @@ def params_from_table(cls: type, table: Any, source: str, section: str):
         if dataclasses.is_dataclass(default):
             values[key] = params_from_table(type(default), value, source, f"{section}.{key}")
         else:
-            values[key] = _checked_value(value, default, source, f"{section}.{key}", key)
+            values[key] = check(cls, key, value, source, f"{section}.{key}")
     return cls(**values)
 
 
@@ -214,30 +199,6 @@ def params_from_dict(cls: type, data: dict[str, Any]):
 
 def field_default(f: dataclasses.Field) -> Any:
     return f.default if f.default is not dataclasses.MISSING else f.default_factory()
-
-
-def _checked_value(value: Any, default: Any, source: str, dotted: str, key: str) -> Any:
-    if isinstance(default, bool):
-        if not isinstance(value, bool):
-            raise ConfigError(source, dotted, "true or false", value)
-        return value
-    if isinstance(default, str):
-        if not isinstance(value, str):
-            raise ConfigError(source, dotted, "a string", value)
-        return value
-    if isinstance(default, int):
-        low = _RANGES.get(key, (1,))[0]
-        if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            raise ConfigError(source, dotted, f"an integer >= {low}", value)
-        return value
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(source, dotted, "a finite number", value)
-    low, high, low_inclusive = _RANGES.get(key, (0.0, math.inf, False))
-    if not ((value >= low if low_inclusive else value > low) and value < high):
-        left = "[" if low_inclusive else "("
-        interval = f"{left}{low:g}, {high:g})" if math.isfinite(high) else f"{'>=' if low_inclusive else '>'} {low:g}"
-        raise ConfigError(source, dotted, f"a number {'in ' + interval if math.isfinite(high) else interval}", value)
-    return float(value)
 
 
 def _generate(generator: str, assembly: dict[str, Any], unit: UnitParams, dummy: DummyParams,
@@ -301,10 +262,9 @@ def _custom_tables(table: dict[str, Any], source: str, base: Path) -> tuple[list
         if not isinstance(is_dummy, bool):
             raise ConfigError(source, f"{where}.dummy", "true or false", is_dummy)
         values = {}
-        for key, default in (("mass", UnitParams.mass), ("friction", UnitParams.friction),
-                             ("stroke", ActuatorParams.stroke)):
+        for key, owner in (("mass", UnitParams), ("friction", UnitParams), ("stroke", ActuatorParams)):
             if key in entry:
-                values[key] = _checked_value(entry[key], default, source, f"{where}.{key}", key)
+                values[key] = check(owner, key, entry[key], source, f"{where}.{key}")
         if "mesh" in entry:
             values["mesh"] = _mesh(entry["mesh"], source, f"{where}.mesh", base)
         units.append(CustomUnit(at=tuple(at) + (0,) * (3 - len(at)), dummy=is_dummy, **values))
@@ -342,10 +302,9 @@ def _transform(transform: dict[str, Any], shape: Shape, source: str) -> Shape:
         if not isinstance(spec, dict):
             raise ConfigError(source, "transform.shuffle", "a table {seed = N}", spec)
         _check_keys(spec, {"seed"}, source, prefix="transform.shuffle.")
-        seed = spec.get("seed")
-        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-            raise ConfigError(source, "transform.shuffle.seed", "an integer >= 0", seed if "seed" in spec else ...)
-        shape = shuffle(shape, seed)
+        if "seed" not in spec:
+            raise ConfigError(source, "transform.shuffle.seed", expected(SEED))
+        shape = shuffle(shape, check_rule(SEED, "", spec["seed"], source, "transform.shuffle.seed"))
     if "cut" in transform:
         spec = transform["cut"]
         if not isinstance(spec, dict):
