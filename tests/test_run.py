@@ -8,8 +8,10 @@ from morphbench.experiment import RunConfig, run
 from morphbench.params import EnvironmentParams, LearnerParams, SensorParams
 from morphbench.shapes import load_shape
 
-CHAIN_2 = load_shape("shapes/chain-2.toml")
-CHAIN_3 = load_shape("shapes/chain-3.toml")
+from conftest import SHAPES_DIR
+
+CHAIN_2 = load_shape(SHAPES_DIR / "chain-2.toml")
+CHAIN_3 = load_shape(SHAPES_DIR / "chain-3.toml")
 
 
 def test_same_seed_gives_identical_records_and_another_seed_does_not():
