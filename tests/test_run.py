@@ -94,3 +94,10 @@ def test_recorded_positions_follow_the_measured_motion():
     order = units[units.step == 3].sort_values("position").unit.tolist()
     front_x = units[(units.step == 3)].set_index("unit").x_m
     assert front_x[order[0]] > front_x[order[1]] > front_x[order[2]]  # position 1 is at the front
+
+
+def test_a_camera_sensor_needs_its_world():
+    from morphbench.experiment import make_sensor
+
+    with pytest.raises(ValueError, match="camera sensor renders its world's PyBullet scene"):
+        make_sensor(SensorParams(kind="camera"), 2, EnvironmentParams(), seed=0)
