@@ -11,12 +11,14 @@ from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
 
+from morphbench import __version__
+from morphbench.bench.cli import add_bench_commands
 from morphbench.errors import ConfigError
 from morphbench.params import (COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, SENSOR_KINDS, STEPS, EnvironmentParams,
                                LearnerParams, SensorParams, field_option, option_type)
+from morphbench.render.options import add_render_arguments, video_params_from_args
 from morphbench.shapes.cli import add_shapes_commands
-from morphbench.bench import add_bench_commands
-from morphbench.render import VideoRecorder, add_render_arguments, render_run, video_params_from_args
+from morphbench.shapes.loader import resolve_shape_path
 
 EXIT_BAD_INPUT = 2
 
@@ -30,6 +32,7 @@ class _Parser(argparse.ArgumentParser):
 
 def _parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="morphbench", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     run = sub.add_parser("run", help="learn a gait on a shape and write records, summary, a learning curve and the "
@@ -125,8 +128,9 @@ def _cmd_run(args) -> int:
     from morphbench import plots
     from morphbench.experiment import load_run_config, run
     from morphbench.learning import load_learner_class
+    from morphbench.render import VideoRecorder
 
-    config = _with_options(load_run_config(args.config), args)
+    config = _with_options(load_run_config(resolve_shape_path(args.config)), args)
     load_learner_class(config.learner)  # fail on a bad plug-in before simulating
     name = Path(args.config).stem
     learner_name = config.learner.rsplit(":", 1)[-1].lower()
@@ -160,6 +164,8 @@ def _cmd_run(args) -> int:
 def _cmd_render(args) -> int:
     from tqdm import tqdm
 
+    from morphbench.render import render_run
+
     with tqdm(desc=f"replay {args.run_dir}", unit="step", disable=args.quiet) as bar:
         def progress(done, total):
             bar.total = total
@@ -178,7 +184,7 @@ def _cmd_scan(args) -> int:
     from morphbench.experiment.scan import DEFAULT_CYCLES
     from morphbench.shapes import load_shape
 
-    shape = load_shape(args.shape)
+    shape = load_shape(resolve_shape_path(args.shape))
     if shape.n_units < 2:
         raise ConfigError(args.shape, "assembly.units", "at least 2 active units to scan phase differences", 1)
     out = _output_dir(args.out or f"runs/scan-{shape.name}", "scan.csv", args.overwrite)

@@ -11,8 +11,6 @@ import json
 import math
 import shutil
 import sys
-import textwrap
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -23,37 +21,11 @@ from morphbench.bench import jobs as bench_jobs
 from morphbench.bench.metrics import condition_metrics, curves, fit_exponential, recovery_steps, steps_to_reach
 from morphbench.errors import ConfigError
 
-ROOT = Path(__file__).resolve().parents[1]
-SHAPES = ROOT / "shapes"
-BENCHMARKS = ROOT / "benchmarks"
+from conftest import BENCHMARKS_DIR as BENCHMARKS, SHAPES_DIR as SHAPES, TINY, write_suite
+
 TABLES = ("runs", "steps", "units", "scans", "jobs")
-
-TINY = f"""
-name = "tiny"
-description = "two learners, two noise levels, two seeds of 4 steps on chain-2, and a 4-point scan"
-
-[[experiment]]
-name = "pair"
-shapes = ["{SHAPES / 'chain-2.toml'}"]
-learners = ["thermal", "flaky"]
-noise = [0.0, 0.5]
-seeds = 2
-steps = 4
-
-[[scan]]
-shape = "{SHAPES / 'chain-2.toml'}"
-resolution = 4
-cycles = 1
-discard = 0
-"""
 N_TINY_RUNS = 8
 N_TINY_JOBS = 9  # 8 runs and one scan part
-
-
-def write_suite(directory: Path, text: str, name: str = "suite.toml") -> Path:
-    path = directory / name
-    path.write_text(textwrap.dedent(text))
-    return path
 
 
 def comparable(tables: dict[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
@@ -65,16 +37,6 @@ def assert_same_tables(a: dict[str, pd.DataFrame], b: dict[str, pd.DataFrame]) -
     a, b = comparable(a), comparable(b)
     for name in TABLES:
         pd.testing.assert_frame_equal(a[name], b[name], check_exact=True, obj=name)
-
-
-@pytest.fixture(scope="module")
-def reference(tmp_path_factory):
-    """The tiny suite run straight through on a local pool of 2 workers: (suite path, results dir, outcome)."""
-    directory = tmp_path_factory.mktemp("reference")
-    suite_path = write_suite(directory, TINY)
-    out = directory / "results"
-    outcome = run_suite(load_suite(suite_path), out, LocalExecutor(2), progress=False)
-    return suite_path, out, outcome
 
 
 # --- executors agree ---------------------------------------------------------------------------------------------
@@ -287,9 +249,7 @@ def test_suites_use_the_ideal_sensor_unless_told_and_put_noise_in_the_run_config
     ideal, optical = ([suite.runs[i] for i in e.run_ids] for e in suite.experiments)
     assert [r.config.sensor.kind for r in ideal] == ["ideal", "ideal"]
     assert [r.condition["noise"] for r in ideal] == [0.0, 0.25]
-    configs = [r.config for r in ideal]
-    noise = [c.environment.noise if hasattr(c, "environment") else c.sensor.noise for c in configs]
-    assert noise == [0.0, 0.25]
+    assert [r.config.environment.noise for r in ideal] == [0.0, 0.25]
     assert optical[0].config.sensor.kind == "optical" and optical[0].config.sensor.optical.frame_rate == 20.0
     assert optical[0].condition["sensor_optical_frame_rate"] == 20.0
     assert "sensor_optical_frame_rate" not in ideal[0].condition

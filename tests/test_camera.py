@@ -22,6 +22,8 @@ from morphbench.physics.camera import CameraGround
 from morphbench.sensing.ground import GroundTexture
 from morphbench.sensing.optical import OpticalSensor
 
+from conftest import SHAPES_DIR
+
 REST_Z = 0.015  # a 30 mm unit resting on the ground: its sensor (default mount) is at zero lift
 
 
@@ -141,7 +143,7 @@ def test_a_run_with_the_camera_renderer_senses_like_the_fast_one():
     from morphbench.params import SensorParams
     from morphbench.shapes import load_shape
 
-    shape = load_shape("shapes/chain-2.toml")
+    shape = load_shape(SHAPES_DIR / "chain-2.toml")
     errors = {}
     for kind in ("camera", "optical"):
         units = run(RunConfig(shape=shape, steps=8, seed=3, sensor=SensorParams(kind=kind))).units()

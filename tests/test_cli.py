@@ -16,10 +16,11 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from morphbench.cli import EXIT_BAD_INPUT, main
+from morphbench.cli import EXIT_BAD_INPUT
 from morphbench.params import LearnerParams
 
-SHAPES = Path(__file__).resolve().parents[1] / "shapes"
+from conftest import SHAPES_DIR as SHAPES, run_cli
+
 CHAIN2 = str(SHAPES / "chain-2.toml")
 CHAIN3 = str(SHAPES / "chain-3.toml")
 RUN_FILES = {"units.parquet", "steps.parquet", "pieces.parquet", "summary.json", "learning_curve.png",
@@ -27,16 +28,6 @@ RUN_FILES = {"units.parquet", "steps.parquet", "pieces.parquet", "summary.json",
 UNIT_COLUMNS = ["step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true",
                 "accepted", "x_m", "y_m", "heading_rad"]  # records.py docs
 STEP_COLUMNS = ["step", "time_s", "ubar", "ubar_true", "acceptance", "event", "x_m", "y_m", "heading_rad", "u_heading"]
-
-
-def run_cli(capsys, *argv: str) -> tuple[int, str, str]:
-    """main(argv) in-process: (exit code, stdout, stderr); argparse's SystemExit becomes its code."""
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def short_run(capsys, out: Path, *extra: str, shape: str = CHAIN2) -> tuple[int, str, str]:

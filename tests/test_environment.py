@@ -11,15 +11,12 @@ from morphbench.experiment.events import CutEvent, DamageEvent, FrictionEvent, N
 from morphbench.experiment.scan import velocity_at
 from morphbench.params import EnvironmentParams, FrictionFieldParams, SensorParams
 from morphbench.physics import World
-from morphbench.shapes import load_shape, shape_from_table
+from morphbench.shapes import load_shape
 
-CHAIN_3 = load_shape("shapes/chain-3.toml")
-EXAMPLES = sorted(__import__("pathlib").Path("examples").glob("*.toml"))
+from conftest import EXAMPLES_DIR, SHAPES_DIR, chain
 
-
-def chain(units, **sections):
-    return shape_from_table({"assembly": {"generator": "chain", "units": units, "dummy": True}, **sections},
-                            source="test")
+CHAIN_3 = load_shape(SHAPES_DIR / "chain-3.toml")
+EXAMPLES = sorted(EXAMPLES_DIR.glob("*.toml"))
 
 
 def link_strokes(world: World, cycles: int = 1) -> np.ndarray:
@@ -181,7 +178,7 @@ def test_every_example_runs_with_its_events_brought_forward(path):
 def test_bad_environment_and_event_entries_give_clear_errors(table, key, tmp_path):
     full = {"shape": "chain-3.toml", **table}
     with pytest.raises(ConfigError) as error:
-        run_config_from_table(full, "cfg.toml", base=__import__("pathlib").Path("shapes"))
+        run_config_from_table(full, "cfg.toml", base=SHAPES_DIR)
     assert key in str(error.value)
 
 

@@ -6,7 +6,6 @@ import inspect
 import math
 import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,6 +24,8 @@ from morphbench.learning import (
 from morphbench.learning import plugins
 from morphbench.learning.metropolis import MetropolisLearner
 from morphbench.params import LearnerParams
+
+from conftest import SHAPES_DIR
 
 # any RuntimeWarning (exp overflow, -inf arithmetic, division by zero) is a bug here
 pytestmark = pytest.mark.filterwarnings("error")
@@ -299,7 +300,6 @@ def docstring_example():
                                        ("random", RandomLearner)])
 def test_builtin_learners_by_name(spec, cls):
     assert load_learner_class(spec) is cls
-    assert LEARNERS == {"thermal": ThermalLearner, "flaky": FlakyLearner, "random": RandomLearner}
 
 
 def test_documented_plugin_example_loads_and_runs(plugin_module):
@@ -471,7 +471,7 @@ def test_thermal_beats_random_phase_changes_on_a_chain():
     from morphbench.params import QUASISTATIC_PHYSICS, SensorParams
     from morphbench.shapes import load_shape
 
-    shape = load_shape(Path(__file__).resolve().parent.parent / "shapes" / "chain-2.toml")
+    shape = load_shape(SHAPES_DIR / "chain-2.toml")
 
     def final(learner):
         return np.mean([run(RunConfig(shape=shape, learner=learner, physics=QUASISTATIC_PHYSICS, steps=60, seed=seed,

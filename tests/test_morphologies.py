@@ -1,7 +1,5 @@
 """Every shipped morphology builds and stays physically sane; grids and cut pieces learn to move."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -10,7 +8,8 @@ from morphbench.params import LearnerParams
 from morphbench.physics import World
 from morphbench.shapes import load_shape
 
-SHAPES = sorted(Path("shapes").glob("*.toml"))
+from conftest import LIBRARY as SHAPES, SHAPES_DIR
+
 SANE_SECONDS = 60.0
 
 
@@ -55,7 +54,7 @@ def late_piece_ubar(shape, temperature: float, seeds, steps: int) -> np.ndarray:
 def test_grids_and_cut_pieces_learn_to_move(name, steps, margin):
     """Learning beats blind phase changes (every trial accepted) on the same seeds, piece by piece. A 2x2 grid has
     four units to coordinate and learns more slowly than a chain (measured: 0.70 vs 0.27 mm/cycle after 150 steps)."""
-    shape = load_shape(f"shapes/{name}.toml")
+    shape = load_shape(SHAPES_DIR / f"{name}.toml")
     seeds = range(4)
     learned = late_piece_ubar(shape, LearnerParams().temperature, seeds, steps)
     blind = late_piece_ubar(shape, float("inf"), seeds, steps)

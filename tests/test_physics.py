@@ -6,12 +6,8 @@ import pytest
 from morphbench.experiment import velocity_at
 from morphbench.params import FAST_PHYSICS, ActuatorParams
 from morphbench.physics import World, pressure_trajectory, pump_on
-from morphbench.shapes import shape_from_table
 
-
-def chain(units: int, **sections) -> object:
-    return shape_from_table({"assembly": {"generator": "chain", "units": units, "dummy": True}, **sections},
-                            source="test")
+from conftest import chain
 
 
 def test_pressure_matches_fine_integration():

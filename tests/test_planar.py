@@ -10,6 +10,8 @@ from morphbench.physics import PlanarWorld, QuasiStaticWorld, make_world
 from morphbench.physics.bellows import GRAVITY
 from morphbench.shapes import load_shape, rotate, shape_from_table
 
+from conftest import SHAPES_DIR
+
 
 def grid(rows: int, columns: int, **sections):
     return shape_from_table({"assembly": {"generator": "grid", "rows": rows, "columns": columns, "dummy": True},
@@ -156,7 +158,7 @@ def test_halving_the_tick_changes_a_grid_little():
 
 def test_every_shape_in_one_layer_runs_on_the_quasistatic_default():
     for name in ("grid-3x3", "custom-irregular", "grid-2x4-split"):
-        world = make_world(load_shape(f"shapes/{name}.toml"), QUASISTATIC_PHYSICS)
+        world = make_world(load_shape(SHAPES_DIR / f"{name}.toml"), QUASISTATIC_PHYSICS)
         assert isinstance(world, (PlanarWorld, QuasiStaticWorld))
         world.set_phases(np.linspace(0, 0.9, world.shape.n_units))
         world.advance(world.ticks_in(4.0))

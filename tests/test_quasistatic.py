@@ -9,12 +9,9 @@ from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig, run, scan, velocity_at
 from morphbench.params import QUASISTATIC_PHYSICS, ActuatorParams, SensorParams
 from morphbench.physics import QuasiStaticWorld, make_world, pressure_trajectory
-from morphbench.shapes import load_shape, shape_from_table
+from morphbench.shapes import load_shape
 
-
-def chain(units: int, **sections):
-    return shape_from_table({"assembly": {"generator": "chain", "units": units, "dummy": True}, **sections},
-                            source="test")
+from conftest import SHAPES_DIR, chain
 
 
 def world_of(shape):
@@ -175,7 +172,7 @@ def test_pressure_is_the_shared_model():
 
 def test_stacks_are_refused_with_one_clear_error():
     with pytest.raises(ConfigError, match="one layer"):
-        make_world(load_shape("shapes/stack-2x2x2.toml"), QUASISTATIC_PHYSICS)
+        make_world(load_shape(SHAPES_DIR / "stack-2x2x2.toml"), QUASISTATIC_PHYSICS)
 
 
 def test_a_run_goes_through_the_run_loop_deterministically():
@@ -209,7 +206,7 @@ def test_the_default_two_unit_curve_has_the_papers_shape():
     """Calibration targets of the physics issue, on the default physics: the peak +4.5 +- 0.5 at 0.35-0.45, the
     minimum between -5 and -3 at 0.55-0.65, and a slope a learner can follow everywhere else."""
     d = np.arange(20) / 20
-    u = scan(load_shape("shapes/chain-2.toml"), 20, cycles=4).ubar.to_numpy()
+    u = scan(load_shape(SHAPES_DIR / "chain-2.toml"), 20, cycles=4).ubar.to_numpy()
     assert 4.0 <= u.max() <= 5.0 and 0.35 <= d[np.argmax(u)] <= 0.45, u
     assert -5.0 <= u.min() <= -3.0 and 0.55 <= d[np.argmin(u)] <= 0.65, u
     shoulders = ((d >= 0.1) & (d <= 0.35)) | ((d >= 0.65) & (d <= 0.9))
@@ -219,7 +216,7 @@ def test_the_default_two_unit_curve_has_the_papers_shape():
 def test_the_papers_first_result_on_the_default_physics():
     """S1: 2-unit Thermal with every default and the ideal sensor, 32 seeds of 100 steps: most runs reach 0.8 of the
     scan's peak within 20 steps, nearly all by step 60, and they stay near the peak afterwards."""
-    shape = load_shape("shapes/chain-2.toml")
+    shape = load_shape(SHAPES_DIR / "chain-2.toml")
     peak = scan(shape, 20, cycles=4).ubar.max()
     first, hold = [], []
     for seed in range(32):

@@ -22,8 +22,10 @@ from morphbench.render import (
 )
 from morphbench.shapes import load_shape
 
-CHAIN_2 = load_shape("shapes/chain-2.toml")
-CHAIN_3 = load_shape("shapes/chain-3.toml")
+from conftest import SHAPES_DIR
+
+CHAIN_2 = load_shape(SHAPES_DIR / "chain-2.toml")
+CHAIN_3 = load_shape(SHAPES_DIR / "chain-3.toml")
 SMALL = VideoParams(width=160, height=90, fps=10, speed=4)  # a frame every 0.4 s of simulated time: 5 per cycle
 FORWARD_WAVE, BACKWARD_WAVE = (0.0, 0.4, 0.8), (0.0, 0.6, 0.2)  # +3.9 and -4.3 mm/cycle for chain-3
 

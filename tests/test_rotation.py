@@ -1,7 +1,5 @@
 """Frame invariance: an assembly turned on the ground (``[transform] rotate``) moves as the same assembly, turned."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -10,7 +8,8 @@ from morphbench.experiment import motion_at
 from morphbench.params import FAST_PHYSICS, QUASISTATIC_PHYSICS
 from morphbench.shapes import load_shape, rotate, shape_from_table
 
-SHAPES = Path(__file__).resolve().parent.parent / "shapes"
+from conftest import SHAPES_DIR as SHAPES
+
 CYCLES = 8
 
 

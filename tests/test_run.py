@@ -8,8 +8,10 @@ from morphbench.experiment import RunConfig, run
 from morphbench.params import EnvironmentParams, LearnerParams, SensorParams
 from morphbench.shapes import load_shape
 
-CHAIN_2 = load_shape("shapes/chain-2.toml")
-CHAIN_3 = load_shape("shapes/chain-3.toml")
+from conftest import SHAPES_DIR
+
+CHAIN_2 = load_shape(SHAPES_DIR / "chain-2.toml")
+CHAIN_3 = load_shape(SHAPES_DIR / "chain-3.toml")
 
 
 def test_same_seed_gives_identical_records_and_another_seed_does_not():
@@ -92,3 +94,10 @@ def test_recorded_positions_follow_the_measured_motion():
     order = units[units.step == 3].sort_values("position").unit.tolist()
     front_x = units[(units.step == 3)].set_index("unit").x_m
     assert front_x[order[0]] > front_x[order[1]] > front_x[order[2]]  # position 1 is at the front
+
+
+def test_a_camera_sensor_needs_its_world():
+    from morphbench.experiment import make_sensor
+
+    with pytest.raises(ValueError, match="camera sensor renders its world's PyBullet scene"):
+        make_sensor(SensorParams(kind="camera"), 2, EnvironmentParams(), seed=0)

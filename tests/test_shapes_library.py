@@ -19,10 +19,8 @@ from morphbench.shapes.cli import add_shapes_commands
 from morphbench.shapes.drawing import draw
 from morphbench.shapes.export import body_names, export_scene
 from morphbench.shapes.loader import GENERATORS, MAX_UNITS
-from test_shapes_loader import assert_config_error, write
+from conftest import LIBRARY, SHAPES_DIR, assert_config_error, run_cli, write
 
-SHAPES_DIR = Path(__file__).resolve().parents[1] / "shapes"
-LIBRARY = sorted(SHAPES_DIR.glob("*.toml"))
 UNIT, DUMMY, ACTUATOR = UnitParams(), DummyParams(), ActuatorParams()
 PITCH = (UNIT.length + ACTUATOR.rest_gap, UNIT.width + ACTUATOR.rest_gap, UNIT.height + ACTUATOR.rest_gap)
 
@@ -115,9 +113,11 @@ def lattice_text(generator: str, dims: dict, dummy: bool) -> str:
 @pytest.mark.parametrize("units", [1, 2, 5])
 @pytest.mark.parametrize("dummy", [True, False])
 def test_chain_counts(tmp_path: Path, units: int, dummy: bool):
-    if units == 1 and not dummy:
+    path = write(tmp_path, lattice_text("chain", {"units": units}, dummy))
+    if units == 1 and not dummy:  # a lone unit's bellows has nothing to push against
+        assert_config_error(path, "assembly.dummy", "true")
         return
-    shape = load_shape(write(tmp_path, lattice_text("chain", {"units": units}, dummy)))
+    shape = load_shape(path)
     assert (shape.n_units, len(shape.bodies), len(shape.links)) == (units, units + dummy, units - 1 + dummy)
 
 
@@ -125,11 +125,13 @@ def test_chain_counts(tmp_path: Path, units: int, dummy: bool):
                                                    (2, 2, 2), (3, 2, 3), (2, 3, 1)])
 @pytest.mark.parametrize("dummy", [True, False])
 def test_grid_and_lattice_counts(tmp_path: Path, layers: int, rows: int, columns: int, dummy: bool):
-    if columns == 1 and not dummy:
-        return
     generator, dims = ("grid", {"rows": rows, "columns": columns}) if layers == 1 else \
         ("lattice", {"layers": layers, "rows": rows, "columns": columns})
-    shape = load_shape(write(tmp_path, lattice_text(generator, dims, dummy)))
+    path = write(tmp_path, lattice_text(generator, dims, dummy))
+    if columns == 1 and not dummy:  # a row of one unit: its bellows has nothing to push against
+        assert_config_error(path, "assembly.dummy", "true")
+        return
+    shape = load_shape(path)
     per_row = columns + dummy
     bellows = layers * rows * (columns if dummy else columns - 1)
     across = layers * (rows - 1) * per_row
@@ -353,8 +355,9 @@ def test_mesh_that_is_not_closed(tmp_path: Path):
     assert_config_error(write(tmp_path, CHAIN + '[unit]\nmesh = "open.stl"\n'), "unit.mesh", "a closed")
 
 
-def test_generators_are_listed():
-    assert GENERATORS == ("chain", "grid", "lattice", "custom")
+def test_an_unknown_generator_is_rejected_naming_every_generator(tmp_path: Path):
+    assert_config_error(write(tmp_path, '[assembly]\ngenerator = "ring"\n'), "assembly.generator",
+                        f"one of {', '.join(GENERATORS)}")
 
 
 # --- export and show ------------------------------------------------------------------------------------------------
@@ -407,14 +410,8 @@ def test_show_writes_a_png(tmp_path: Path, name: str):
 # --- the shapes commands --------------------------------------------------------------------------------------------
 
 
-def run_cli(argv, capsys) -> tuple[int, str, str]:
-    code = main(argv)
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 def test_list_shows_every_file(capsys):
-    code, out, err = run_cli(["shapes", "list", str(SHAPES_DIR)], capsys)
+    code, out, err = run_cli(capsys, "shapes", "list", str(SHAPES_DIR))
     assert code == 0 and not err
     lines = out.splitlines()
     assert lines[0].split() == ["name", "units", "bodies", "links", "description"]
@@ -427,14 +424,14 @@ def test_list_shows_every_file(capsys):
 def test_list_of_a_directory_with_a_bad_file(tmp_path: Path, capsys):
     write(tmp_path, CHAIN, "a.toml")
     write(tmp_path, '[assembly]\ngenerator = "ring"\n', "b.toml")
-    code, out, err = run_cli(["shapes", "list", str(tmp_path)], capsys)
+    code, out, err = run_cli(capsys, "shapes", "list", str(tmp_path))
     assert code == 2 and err.count("\n") == 1 and f"{tmp_path / 'b.toml'}: assembly.generator" in err
-    code, _, err = run_cli(["shapes", "list", str(tmp_path / "nosuch")], capsys)
+    code, _, err = run_cli(capsys, "shapes", "list", str(tmp_path / "nosuch"))
     assert code == 2 and "a directory of morphology files" in err
 
 
 def test_check_prints_ok_lines(capsys):
-    code, out, err = run_cli(["shapes", "check", *map(str, LIBRARY)], capsys)
+    code, out, err = run_cli(capsys, "shapes", "check", *map(str, LIBRARY))
     assert code == 0 and not err
     lines = out.splitlines()
     assert len(lines) == len(LIBRARY) and all(line.startswith("OK ") for line in lines)
@@ -444,7 +441,7 @@ def test_check_prints_ok_lines(capsys):
 def test_check_stops_at_the_first_bad_file(tmp_path: Path, capsys):
     bad = write(tmp_path, TWO + links_text((1, 3, 1)), "bad.toml")
     worse = write(tmp_path, "[assembly\n", "worse.toml")
-    code, out, err = run_cli(["shapes", "check", str(SHAPES_DIR / "chain-2.toml"), str(bad), str(worse)], capsys)
+    code, out, err = run_cli(capsys, "shapes", "check", str(SHAPES_DIR / "chain-2.toml"), str(bad), str(worse))
     assert code == 2
     assert out.startswith("OK ") and out.count("\n") == 1
     assert err == f"morphbench: error: {bad}: links[0].between: expected two [[units]] numbers in 1..2 " \
@@ -453,9 +450,9 @@ def test_check_stops_at_the_first_bad_file(tmp_path: Path, capsys):
 
 def test_export_and_show_commands(tmp_path: Path, capsys):
     source = str(SHAPES_DIR / "custom-irregular.toml")
-    code, out, err = run_cli(["shapes", "export", source, "--out", str(tmp_path / "c.glb")], capsys)
+    code, out, err = run_cli(capsys, "shapes", "export", source, "--out", str(tmp_path / "c.glb"))
     assert code == 0 and (tmp_path / "c.glb").is_file() and "custom-irregular" in out
-    code, out, err = run_cli(["shapes", "show", source, "--png", str(tmp_path / "c.png")], capsys)
+    code, out, err = run_cli(capsys, "shapes", "show", source, "--png", str(tmp_path / "c.png"))
     assert code == 0 and (tmp_path / "c.png").read_bytes()[:4] == b"\x89PNG"
 
 
@@ -468,7 +465,7 @@ def test_export_and_show_commands(tmp_path: Path, capsys):
 ])
 def test_bad_command_input_exits_2_with_one_line(tmp_path: Path, capsys, argv, expected):
     argv = [a.format(shape=SHAPES_DIR / "chain-2.toml", tmp=tmp_path) for a in argv]
-    code, out, err = run_cli(["shapes", *argv], capsys)
+    code, out, err = run_cli(capsys, "shapes", *argv)
     assert code == 2 and err.count("\n") == 1
     assert expected.format(tmp=tmp_path) in err
     assert not any(p.suffix in (".stl", ".jpg", ".glb", ".png") for p in tmp_path.iterdir())
@@ -495,9 +492,9 @@ def test_commands_plug_into_another_parser(tmp_path: Path, capsys):
 
 def test_default_directory_is_the_library(monkeypatch, tmp_path: Path, capsys):
     monkeypatch.chdir(tmp_path)  # no ./shapes here: the shipped library
-    code, out, _ = run_cli(["shapes", "list"], capsys)
+    code, out, _ = run_cli(capsys, "shapes", "list")
     assert code == 0 and len(out.splitlines()) == 1 + len(LIBRARY)
     (tmp_path / "shapes").mkdir()
     write(tmp_path / "shapes", CHAIN, "mine.toml")
-    code, out, _ = run_cli(["shapes", "list"], capsys)
+    code, out, _ = run_cli(capsys, "shapes", "list")
     assert code == 0 and out.splitlines()[1].split()[0] == "mine"

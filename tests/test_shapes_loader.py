@@ -21,31 +21,10 @@ from morphbench.params import ActuatorParams, DummyParams, UnitParams
 from morphbench.shapes import Shape, load_shape, params_from_table, shape_from_table
 from morphbench.shapes.loader import MAX_UNITS
 
-SHAPES_DIR = Path(__file__).resolve().parents[1] / "shapes"
+from conftest import SHAPES_DIR, assert_config_error, write
+
 SHIPPED = sorted(p for p in SHAPES_DIR.glob("chain-*.toml") if p.stem.removeprefix("chain-").isdigit())  # the plain chains; the rest: test_shapes_library.py
 ASSEMBLY = '[assembly]\ngenerator = "chain"\nunits = 2\n'
-
-
-def write(directory: Path, text: str | bytes, name: str = "shape.toml") -> Path:
-    path = directory / name
-    if isinstance(text, bytes):
-        path.write_bytes(text)
-    else:
-        path.write_text(text, encoding="utf-8")
-    return path
-
-
-def assert_config_error(path: Path, key: str, expected: str) -> ConfigError:
-    """load_shape(path) raises ConfigError whose message names the file, the key and what was expected."""
-    with pytest.raises(ConfigError) as info:
-        load_shape(path)
-    error, message = info.value, str(info.value)
-    assert error.source == str(path)
-    assert error.key == key, message
-    assert message.startswith(f"{path}: {key}: expected ")
-    assert expected in message, f"{expected!r} not in {message!r}"
-    assert "\n" not in message  # the CLI prints it on one line
-    return error
 
 
 # --- the shipped files --------------------------------------------------------------------------------------------

@@ -20,9 +20,8 @@ from morphbench.cli import main
 from morphbench.experiment import RunConfig, run
 from morphbench.experiment.records import RunRecords
 from morphbench.shapes import load_shape, shape_from_table
-from test_bench import reference  # noqa: F401  (the tiny suite, run once for this module)
 
-SHAPES = Path(__file__).resolve().parents[1] / "shapes"
+from conftest import SHAPES_DIR as SHAPES
 CHAIN_2 = load_shape(SHAPES / "chain-2.toml")
 TRACK_COLUMNS = ["x_m", "y_m", "heading_rad", "u_heading"]
 FORWARD, BACKWARD = [0.0, 0.4], [0.0, 0.6]  # a 2-unit row's gaits (tests/test_planar.py)
@@ -144,7 +143,7 @@ def test_a_grid_whose_sides_disagree_records_its_turn():
         -right.summary()["turning_rate_deg_per_cycle"], rel=1e-6)
 
 
-def test_the_suite_tables_and_report_carry_the_track(reference, tmp_path):  # noqa: F811
+def test_the_suite_tables_and_report_carry_the_track(reference, tmp_path):
     _, results, outcome = reference
     out = tmp_path / "results"
     shutil.copytree(results, out)
@@ -164,7 +163,7 @@ def test_the_suite_tables_and_report_carry_the_track(reference, tmp_path):  # no
     assert np.allclose(metrics.set_index("condition_id").final_u_heading.loc[means.index], means)
 
 
-def test_a_store_of_runs_from_before_the_track_still_reports(reference, tmp_path):  # noqa: F811
+def test_a_store_of_runs_from_before_the_track_still_reports(reference, tmp_path):
     """Runs stored before steps.parquet had the track and summaries its values (a store being resumed) are
     consolidated with NaN there and left out of the trajectories; with none left, there is no trajectory figure."""
     _, results, _ = reference

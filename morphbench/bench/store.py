@@ -66,7 +66,7 @@ class Store:
         result = self.result(kind, job_id)
         return None if result is None else result["status"]
 
-    def save(self, job, result: dict, extra: dict | None = None) -> Path:
+    def save(self, job, result: dict) -> Path:
         """Write one job's tables and result.json into its directory, atomically (temp directory + rename)."""
         final = self.job_dir(job.kind, job.id)
         final.parent.mkdir(parents=True, exist_ok=True)
@@ -81,7 +81,7 @@ class Store:
                     table.to_parquet(tmp / f"{name}.parquet", index=False)
             meta = {"job_id": job.id, "kind": job.kind, "status": result["status"], "error": result.get("error"),
                     "traceback": result.get("traceback"), "wall_time_s": result.get("wall_time_s"),
-                    "summary": result.get("summary"), **(extra or {})}
+                    "summary": result.get("summary")}
             (tmp / RESULT).write_text(json.dumps(meta, indent=2, sort_keys=True, default=_json_default) + "\n")
             if final.exists():  # a failed job run again (--retry-failed): move the old one out of the way first
                 old = final.parent / f".tmp-old-{job.id}-{os.getpid()}"
@@ -181,9 +181,6 @@ class Store:
         path = self.root / f"{name}.parquet"
         atomic_write(path, lambda tmp: table.to_parquet(tmp, index=False))
         return path
-
-    def read_table(self, name: str) -> pd.DataFrame:
-        return pd.read_parquet(self.root / f"{name}.parquet")
 
 
 def _job_row(job_id: str, kind: str, result: dict | None) -> dict:

@@ -94,7 +94,9 @@ def make_sensor(params: SensorParams, n_units: int, environment: EnvironmentPara
         rng = np.random.default_rng(np.random.SeedSequence([seed, OPTICAL_STREAM]))
         ground = ground_texture(environment.ground)
         if params.kind == "camera":
-            if world is None or world.client is None:
+            if world is None:
+                raise ValueError("make_sensor: the camera sensor renders its world's PyBullet scene; pass that world")
+            if world.client is None:
                 raise ConfigError("--sensor", "sensor", "optical or ideal with the quasi-static physics (the camera "
                                   "sensor renders a PyBullet scene)", params.kind)
             ground = CameraGround(world.client, ground)

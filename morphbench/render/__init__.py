@@ -11,20 +11,16 @@ Besides physics/, this is the only package that talks to PyBullet (TinyRenderer,
     writers.py    MP4 (OpenCV) and GIF (Pillow) writers
     options.py    the --video options of the command line
     replay.py     render_run: a finished run replayed into a video
+
+The names below are imported on first use (``morphbench.lazy``): the command line reads its video options without
+loading the simulator.
 """
 
-from morphbench.render.checks import check_output_path, check_video_params
-from morphbench.render.options import add_render_arguments, video_params_from_args
-from morphbench.render.replay import load_run, render_run
-from morphbench.render.video import VideoRecorder, pressure_colour
+from morphbench.lazy import export_lazily
 
-__all__ = [
-    "VideoRecorder",
-    "add_render_arguments",
-    "check_output_path",
-    "check_video_params",
-    "load_run",
-    "pressure_colour",
-    "render_run",
-    "video_params_from_args",
-]
+export_lazily(__name__, {
+    "check_output_path": "checks", "check_video_params": "checks",
+    "add_render_arguments": "options", "video_params_from_args": "options",
+    "load_run": "replay", "render_run": "replay",
+    "VideoRecorder": "video", "pressure_colour": "video",
+})

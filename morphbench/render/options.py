@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from morphbench.params import VideoParams, field_option
-from morphbench.render.video import check_video_params
+from morphbench.render.checks import check_video_params
 
 
 def add_render_arguments(parser: argparse.ArgumentParser, output: bool = True) -> None:

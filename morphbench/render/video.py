@@ -175,12 +175,11 @@ class VideoRecorder:
             c, body_ids = self._scene.client, self._scene.bodies
         else:
             c, body_ids = world.client, world.bodies
+            # hide the physics plane: the recorder draws its own ground, far faster
+            pb.changeVisualShape(world.ground, -1, rgbaColor=[0, 0, 0, 0], physicsClientId=c)
         self._client, self._body_ids = c, body_ids
         shape = world.shape
         width, height = self.params.width, self.params.height
-        ground = getattr(world, "ground", None)
-        if ground is not None:  # the physics plane: the recorder draws its own ground, far faster
-            pb.changeVisualShape(ground, -1, rgbaColor=[0, 0, 0, 0], physicsClientId=c)
         for i, body in enumerate(shape.bodies):
             if body.dummy:
                 pb.changeVisualShape(body_ids[i], -1, rgbaColor=DUMMY_COLOUR, physicsClientId=c)
@@ -275,9 +274,8 @@ class VideoRecorder:
     def _recolour(self) -> None:
         world, c = self.world, self._client
         pressure = np.asarray(world.pressure)
-        damage = getattr(world, "damage", None)
         for k, uid in enumerate(self._unit_bodies):
-            damaged = k in self.damaged or bool(damage is not None and k < len(damage) and damage[k])
+            damaged = k in self.damaged or bool(world.damage[k])
             p = float(pressure[self._driven[k]].max()) if len(self._driven[k]) else 0.0
             level = "damaged" if damaged else round(p * (COLOUR_LEVELS - 1))
             if self._levels.get(uid) != level:

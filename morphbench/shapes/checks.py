@@ -52,13 +52,6 @@ def is_connected(shape: Shape) -> bool:
     return len(components(shape)) <= 1
 
 
-def link_axis(shape: Shape, index: int) -> int:
-    """0, 1 or 2: the lattice axis (x, y, z) of link ``index``, along which its rear body lies behind its front."""
-    link = shape.links[index]
-    d = np.subtract(shape.bodies[link.front].position, shape.bodies[link.rear].position)
-    return int(np.argmax(np.abs(d)))
-
-
 def check_shape(shape: Shape, *, allow_disconnected: bool = False,
                 body_label: Callable[[int], str] = lambda i: f"body {i}") -> Shape:
     """Raise ConfigError if the shape cannot be built as a lattice assembly (module docstring); return it if it can.

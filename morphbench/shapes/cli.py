@@ -8,6 +8,8 @@ line and exits with 2). ``python -m morphbench.shapes.cli ...`` runs the same co
     morphbench shapes check FILE...              validate; one OK line per file, exit 2 at the first bad one
     morphbench shapes export FILE --out OUT.glb  a 3-D scene (.glb, .gltf, .obj, .ply): bodies and links
     morphbench shapes show FILE --png OUT.png    a top view and a side view
+
+FILE is a morphology file, or the bare name of a shape of the shipped library (``chain-2``).
 """
 
 from __future__ import annotations
@@ -15,13 +17,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from morphbench import data_path
 from morphbench.errors import ConfigError
 from morphbench.shapes.checks import components
 from morphbench.shapes.export import SCENE_SUFFIXES
-from morphbench.shapes.loader import load_shape
+from morphbench.shapes.loader import load_shape, resolve_shape_path
 
-PACKAGE_SHAPES = Path(__file__).resolve().parents[2] / "shapes"
-"""The shipped library (next to the package in a source checkout)."""
+PACKAGE_SHAPES = data_path("shapes")
+"""The shipped library (in the installed package, or next to it in a source checkout)."""
+FILE_HELP = "a morphology file, or the name of a shipped shape (chain-2; see 'morphbench shapes list')"
 
 
 def default_directory() -> Path:
@@ -42,16 +46,16 @@ def add_shapes_commands(subparsers) -> argparse.ArgumentParser:
     listing.set_defaults(func=cmd_list)
 
     check = sub.add_parser("check", help="validate morphology files (exit 2 at the first bad one)")
-    check.add_argument("files", nargs="+", metavar="FILE")
+    check.add_argument("files", nargs="+", metavar="FILE", help=FILE_HELP)
     check.set_defaults(func=cmd_check)
 
     export = sub.add_parser("export", help="write a 3-D scene of a shape: one mesh per body, a cylinder per link")
-    export.add_argument("file", metavar="FILE")
+    export.add_argument("file", metavar="FILE", help=FILE_HELP)
     export.add_argument("--out", required=True, help=f"output file ({', '.join(SCENE_SUFFIXES)})")
     export.set_defaults(func=cmd_export)
 
     show = sub.add_parser("show", help="draw a shape at rest (top and side view) to a PNG")
-    show.add_argument("file", metavar="FILE")
+    show.add_argument("file", metavar="FILE", help=FILE_HELP)
     show.add_argument("--png", required=True, help="output picture (.png)")
     show.set_defaults(func=cmd_show)
     return shapes
@@ -78,7 +82,7 @@ def cmd_list(args) -> int:
 
 def cmd_check(args) -> int:
     for file in args.files:
-        shape = load_shape(file)
+        shape = load_shape(resolve_shape_path(file))
         n_pieces = len(components(shape))
         pieces = f", {n_pieces} pieces (cut)" if n_pieces > 1 else ""
         print(f"OK {file}: {shape.name}, {_counts(shape)}{pieces}")
@@ -104,7 +108,7 @@ def _write(file: str, flag: str, output: str, suffixes, writer) -> int:
         raise ConfigError(flag, output, f"a file name ending in {', '.join(suffixes)}")
     if out.is_dir():
         raise ConfigError(flag, output, "a file name (this is a directory)")
-    shape = load_shape(file)
+    shape = load_shape(resolve_shape_path(file))
     try:
         writer(shape, out)
     except OSError as exc:

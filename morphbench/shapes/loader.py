@@ -389,3 +389,20 @@ def _table(table: dict[str, Any], key: str, source: str) -> dict[str, Any]:
     if not isinstance(value, dict):
         raise ConfigError(source, key, "a table", value)
     return value
+
+
+def resolve_shape_path(name: str | Path) -> Path:
+    """The file a command-line shape argument means: ``name`` itself, unless it is a bare name (no ``.toml``, no
+    directory) that is not a file here, which names a shape of the shipped library (``chain-2``); a bare name that is
+    in neither is a ConfigError listing the library."""
+    path = Path(name)
+    if path.exists() or path.suffix == ".toml" or len(path.parts) != 1:
+        return path
+    from morphbench import data_path
+
+    library = data_path("shapes")
+    shipped = library / f"{path.name}.toml"
+    if shipped.is_file():
+        return shipped
+    names = ", ".join(sorted(p.stem for p in library.glob("*.toml")))
+    raise ConfigError(str(name), "(shape)", f"a morphology file or the name of a shipped shape ({names})")
