@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from morphbench.errors import ConfigError, require_integer, require_number
-from morphbench.params import DAMAGE_MODES
+from morphbench.errors import ConfigError, require_integer
+from morphbench.params import DAMAGE_MODES, SEED, EnvironmentParams, check, check_rule
 from morphbench.shapes.transforms import shuffle_order
 
 if TYPE_CHECKING:  # configs and suites parse events without loading the simulator
@@ -91,11 +91,11 @@ class Event(ABC):
 class FrictionEvent(Event):
     kind: str = field(default="friction", init=False)
     scale: float
-    """new friction scale (> 0)."""
+    """new friction scale (EnvironmentParams.friction_scale's range)."""
 
     @classmethod
     def parse(cls, item, source, where, n_units, n_links):
-        return {"scale": require_number(item["scale"], source, f"{where}.scale", 0, strict=True)}
+        return {"scale": check(EnvironmentParams, "friction_scale", item["scale"], source, f"{where}.scale")}
 
     def apply(self, world, state):
         world.set_friction_scale(self.scale)
@@ -129,7 +129,7 @@ class ShuffleEvent(Event):
 
     @classmethod
     def parse(cls, item, source, where, n_units, n_links):
-        return {"seed": require_integer(item["seed"], source, f"{where}.seed", 0)}
+        return {"seed": check_rule(SEED, "", item["seed"], source, f"{where}.seed")}
 
     def apply(self, world, state):
         state.order = state.order[shuffle_order(len(state.order), self.seed)]  # the permutation of the shape transform
@@ -155,11 +155,11 @@ class CutEvent(Event):
 class NoiseEvent(Event):
     kind: str = field(default="noise", init=False)
     sigma: float
-    """new measurement noise, mm/cycle (>= 0)."""
+    """new measurement noise, mm/cycle (EnvironmentParams.noise's range)."""
 
     @classmethod
     def parse(cls, item, source, where, n_units, n_links):
-        return {"sigma": require_number(item["sigma"], source, f"{where}.sigma", 0)}
+        return {"sigma": check(EnvironmentParams, "noise", item["sigma"], source, f"{where}.sigma")}
 
     def apply(self, world, state):
         state.noise = self.sigma
