@@ -13,7 +13,7 @@ from pathlib import Path
 
 from morphbench import __version__
 from morphbench.bench.cli import add_bench_commands
-from morphbench.errors import ConfigError
+from morphbench.errors import ConfigError, PhysicsError
 from morphbench.params import (COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, SENSOR_KINDS, STEPS, EnvironmentParams,
                                LearnerParams, SensorParams, field_option, option_type)
 from morphbench.render.options import add_render_arguments, video_params_from_args
@@ -134,17 +134,24 @@ def _cmd_run(args) -> int:
     load_learner_class(config.learner)  # fail on a bad plug-in before simulating
     name = Path(args.config).stem
     learner_name = config.learner.rsplit(":", 1)[-1].lower()
-    out = _output_dir(args.out or f"runs/{name}-{learner_name}-seed{config.seed}", "summary.json", args.overwrite)
+    out_arg = args.out or f"runs/{name}-{learner_name}-seed{config.seed}"
+    created = not Path(out_arg).exists()
+    out = _output_dir(out_arg, "summary.json", args.overwrite)
     video = VideoRecorder(None, args.video, video_params_from_args(args)) if args.video else nullcontext()
-    with video as recorder, tqdm(total=config.steps + 1, desc=f"{name} {learner_name}", unit="step",
-                                 disable=args.quiet) as bar:
-        def progress(step, records):
-            bar.update(1)
-            bar.set_postfix_str(f"Ubar {records.last_ubar:+.2f} mm/cycle")
-            if recorder is not None:
-                recorder.progress(step, records)
+    try:
+        with video as recorder, tqdm(total=config.steps + 1, desc=f"{name} {learner_name}", unit="step",
+                                     disable=args.quiet) as bar:
+            def progress(step, records):
+                bar.update(1)
+                bar.set_postfix_str(f"Ubar {records.last_ubar:+.2f} mm/cycle")
+                if recorder is not None:
+                    recorder.progress(step, records)
 
-        records = run(config, progress, recorder)
+            records = run(config, progress, recorder)
+    except BaseException:
+        if created and not any(out.iterdir()):
+            out.rmdir()  # a run that failed (a plug-in, the physics) leaves no run directory behind
+        raise
     records.write(out)
     title = f"{name}, {learner_name}, seed {config.seed}"
     plots.learning_curve(records.steps(), records.units(), out / "learning_curve.png", title=title)
@@ -214,7 +221,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         return args.func(args)
-    except ConfigError as exc:
+    except (ConfigError, PhysicsError) as exc:  # bad input, a failing plug-in (PluginError), physics off the model
         print(f"morphbench: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
 

@@ -30,3 +30,25 @@ def require_number(value: object, source: str, key: str, low: float, strict: boo
     if not ok or (value <= low if strict else value < low):
         raise ConfigError(source, key, f"a finite number {'>' if strict else '>='} {low:g}", value)
     return float(value)
+
+
+class PluginError(ConfigError):
+    """A plug-in learner that raised, or returned or kept something unusable, during a run: named by its spec
+    (``--learner``), the method and the unit. A ConfigError, so the CLI prints it on one line and exits with 2."""
+
+    def __init__(self, spec: str, method: str, expected: str, got: object = ...):
+        if got is not ...:
+            # a plug-in's value may be anything: its repr is kept to one short line
+            shown = " ".join(repr(got).split())
+            expected += f", got {shown if len(shown) <= 80 else shown[:77] + '...'}"
+        super().__init__("--learner", spec, f"{method} {expected}")
+        self.method, self.got = method, got
+
+
+class PhysicsError(Exception):
+    """A run whose physics left the model's validity (a pose not finite, a body tipped over, launched or moving faster
+    than its bellows can push it): which body, what and at which learning step, on one line. The CLI exits with 2."""
+
+    def __init__(self, source: str, step: int, body: str, what: str):
+        self.source, self.step, self.body, self.what = source, step, body, what
+        super().__init__(f"{source}: physics left the model's validity at learning step {step}: {body} {what}")

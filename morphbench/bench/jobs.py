@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from morphbench.errors import ConfigError, PhysicsError
 from morphbench.experiment.run import run
 from morphbench.experiment.scan import ScanPoint
 from morphbench.failures import describe
@@ -24,6 +25,8 @@ def execute(job) -> dict[str, Any]:
     started = time.perf_counter()
     try:
         result = _run(job.payload) if job.kind == "run" else _scan(job.payload)
+    except (ConfigError, PhysicsError) as exc:  # their one line names the plug-in or body, what and where
+        result = {"status": "failed", "error": str(exc), "traceback": traceback.format_exc()}
     except (Exception, SystemExit) as exc:  # a plug-in calling sys.exit() fails its run, not the suite
         result = {"status": "failed", "error": describe(exc), "traceback": traceback.format_exc()}
     result.setdefault("error", None)

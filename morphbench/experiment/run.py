@@ -15,9 +15,10 @@ from typing import Callable
 
 import numpy as np
 
-from morphbench.errors import ConfigError
+from morphbench.errors import ConfigError, PhysicsError
 from morphbench.experiment.records import RunRecords
 from morphbench.learning import load_learner_class, make_learners
+from morphbench.learning.plugins import kept_phase, proposed_phase, update_accepted
 from morphbench.experiment.events import Event, RunState, parse_events
 from morphbench.params import (
     DEFAULT_PHYSICS,
@@ -146,6 +147,9 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
 
     Units keep their identity (learner, memory, noise stream, damage) when a shuffle moves them: ``order[p]`` is the
     unit at position p (0 = front), and the world sees phases by position.
+
+    A learner that raises or returns no usable phase stops the run with a PluginError; physics that leaves the
+    model's validity (see ``_Validity``) stops it with a PhysicsError.
     """
     learners = make_learners(load_learner_class(config.learner), config.learner_params, config.seed,
                              config.shape.n_units)
@@ -156,9 +160,10 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
         loop.warm_up()
         for step in range(config.steps + 1):
             applied = loop.apply_events(step)
-            tried = loop.propose()
+            tried = loop.propose(step)
             u_measured, u_true = loop.actuate_and_measure()
-            accepted = loop.update(u_measured)
+            loop.check_physics(step)
+            accepted = loop.update(u_measured, step)
             loop.record(records, step, tried, u_measured, u_true, accepted, applied)
             if progress is not None:
                 progress(step, records)
@@ -182,10 +187,13 @@ class _RunLoop:
         # The ground truth is sampled on the sensor's ticks, so poses are read once; an ideal sensor is its own truth.
         self.truth = None if isinstance(self.sensor, IdealSensor) else IdealSensor(n, self.sensor.sample_period)
         self.observe = (lambda k: on_tick(world)) if on_tick is not None else None
+        self.kept = np.array([kept_phase(learner, u, 0) for u, learner in enumerate(learners)], dtype=float)
+        """each unit's kept phase, read from its learner once per step and wrapped into [0, 1)."""
+        self.validity = _Validity(config.shape, world)
 
     def warm_up(self) -> None:
         """Start every pump at its learner's initial phase and let the gait settle."""
-        self.world.set_phases([learner.phase for learner in self.learners])
+        self.world.set_phases(self.kept)
         self._advance(self.config.learner_params.warmup_cycles)
 
     def apply_events(self, step: int) -> list[Event]:
@@ -195,12 +203,12 @@ class _RunLoop:
             event.apply(self.world, self.state)
         return applied
 
-    def propose(self) -> np.ndarray:
+    def propose(self, step: int) -> np.ndarray:
         """Each living unit's trial phase, set in the world by position (a dead unit's learner stops: it keeps its
         phase and gets no measurement)."""
         alive = self.state.alive()
-        tried = np.array([learner.propose() if alive[u] else learner.phase for u, learner in enumerate(self.learners)],
-                         dtype=float)
+        tried = np.array([proposed_phase(learner, u, step) if alive[u] else self.kept[u]
+                          for u, learner in enumerate(self.learners)], dtype=float)
         self.world.set_phases(tried[self.state.order])
         return tried
 
@@ -221,17 +229,23 @@ class _RunLoop:
         u_measured[~self.state.alive()] = np.nan
         return u_measured, u_true
 
-    def update(self, u_measured: np.ndarray) -> np.ndarray:
+    def check_physics(self, step: int) -> None:
+        """A PhysicsError if the world has left the model's validity since the previous check."""
+        self.validity.check(step, self.state.order)
+
+    def update(self, u_measured: np.ndarray, step: int) -> np.ndarray:
         """Each living learner gets its own unit's measurement and nothing else; whether it accepted its trial."""
         alive = self.state.alive()
-        return np.array([bool(learner.update(float(u_measured[u]))) if alive[u] else False
-                         for u, learner in enumerate(self.learners)])
+        accepted = np.array([update_accepted(learner, u, step, float(u_measured[u])) if alive[u] else False
+                             for u, learner in enumerate(self.learners)])
+        self.kept = np.array([kept_phase(learner, u, step) for u, learner in enumerate(self.learners)], dtype=float)
+        return accepted
 
     def record(self, records: RunRecords, step: int, tried: np.ndarray, u_measured: np.ndarray, u_true: np.ndarray,
                accepted: np.ndarray, applied: list[Event]) -> None:
         """The step's row per unit, with its position, piece and pose, and the events applied."""
         world, position = self.world, self.state.position()
-        kept = np.array([learner.phase for learner in self.learners], dtype=float)
+        kept = self.kept
         piece_of_body = {body: k for k, piece in enumerate(world.pieces()) for body in piece}
         piece = np.array([piece_of_body[self.config.shape.units[p]] for p in position]) + 1
         positions, orientations = world.unit_poses()  # the world lists units by position
@@ -242,3 +256,72 @@ class _RunLoop:
 
     def _advance(self, n_cycles: float) -> None:
         self.world.advance(self.world.ticks_in(n_cycles * self.config.shape.actuator.cycle_time), self.observe)
+
+
+MAX_TILT_DEG = 45.0
+"""A body tipped further than this from upright has left the model: units slide upright on their four feet."""
+MAX_REACH_PER_CYCLE = 3.0
+"""In bellows reaches per cycle, the fastest a body may move (see ``_Validity``)."""
+
+
+class _Validity:
+    """Checks that a world is still in the model's validity, from the bodies' poses at each check.
+
+    - every position and orientation is finite;
+    - no body is tilted more than MAX_TILT_DEG from upright (the angle of its own z axis from the vertical);
+    - no body has risen above its rest height by more than its own height (launched: units slide on the ground or on
+      the layer below, a lifting bellows raises one by a stroke);
+    - no body moves faster, over the cycles since the previous check, than MAX_REACH_PER_CYCLE bellows reaches per
+      cycle. A bellows inflates and vents once per cycle, so each changes its two bodies' spacing by at most one reach
+      per cycle, and the fastest gait of the library moves well under one stroke per cycle (docs/morphologies.md);
+      3 leaves room for transients such as a cut or a damaged bellows letting go. The reach is the largest stroke,
+      but at most the largest body's size: the model's bellows sits between neighbours and pushes along their centre
+      line, which a bellows longer than a unit no longer does (so an absurd stroke is caught, not licensed).
+    """
+
+    def __init__(self, shape: Shape, world: World):
+        self.shape, self.world = shape, world
+        self.rest_height = shape.placed_positions()[:, 2]
+        self.height = np.array([body.size[2] for body in shape.bodies], dtype=float)
+        strokes = [shape.actuator.stroke] + [link.stroke for link in shape.links if link.stroke is not None]
+        reach = min(max(strokes), max(max(body.size) for body in shape.bodies))
+        self.max_speed = MAX_REACH_PER_CYCLE * reach
+        """m/cycle."""
+        self.positions, self.time = world.poses()[0], world.time
+
+    def check(self, step: int, order: np.ndarray) -> None:
+        """A PhysicsError naming the first body found outside the model (unit numbers by identity: ``order[p]`` is
+        the unit at position p)."""
+        positions, orientations = self.world.poses()
+        cycles = (self.world.time - self.time) / self.shape.actuator.cycle_time
+        finite = np.isfinite(positions).all(axis=1) & np.isfinite(orientations).all(axis=1)
+        q = orientations / np.linalg.norm(orientations, axis=1, keepdims=True)
+        upright = 1.0 - 2.0 * (q[:, 0] ** 2 + q[:, 1] ** 2)  # the z component of the body's own z axis
+        tilt = np.degrees(np.arccos(np.clip(upright, -1.0, 1.0)))
+        rise = positions[:, 2] - self.rest_height
+        d = positions - self.positions
+        moved = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])  # hypot: no overflow when a body flew off
+        speed = moved / cycles if cycles > 0 else np.zeros(len(moved))
+        for body in range(len(positions)):
+            if not finite[body]:
+                what = f"has a pose that is not finite (position {positions[body].tolist()}, orientation " \
+                       f"{orientations[body].tolist()})"
+            elif tilt[body] > MAX_TILT_DEG:
+                what = f"tipped over (tilted {tilt[body]:.0f} degrees from upright, more than {MAX_TILT_DEG:.0f})"
+            elif rise[body] > self.height[body]:
+                what = f"was launched ({1000 * rise[body]:.4g} mm above its rest height, more than its own height " \
+                       f"of {1000 * self.height[body]:.4g} mm)"
+            elif speed[body] > self.max_speed:
+                what = f"moved {1000 * speed[body]:.4g} mm/cycle over {cycles:g} cycles, faster than its bellows can " \
+                       f"push it (at most {MAX_REACH_PER_CYCLE:g} x {1000 * self.max_speed / MAX_REACH_PER_CYCLE:.4g} mm " \
+                       f"per cycle: the bellows' stroke, at most a body's size)"
+            else:
+                continue
+            raise PhysicsError(self.shape.source, step, self._name(body, order), what)
+        self.positions, self.time = positions, self.world.time
+
+    def _name(self, body: int, order: np.ndarray) -> str:
+        units = self.shape.units
+        if body in units:
+            return f"unit {int(order[units.index(body)]) + 1}"
+        return f"dummy body {body}"

@@ -8,10 +8,16 @@ The plug-in interface. A plug-in need not subclass ``morphbench.learning.Learner
 - be a class constructible as ``Cls(params, rng)``: ``params`` is the run's ``morphbench.params.LearnerParams``
   and ``rng`` the unit's own ``numpy.random.Generator`` (draw every random number from it, so runs are
   reproducible and units independent);
-- have ``propose() -> float``: the phase in [0, 1) the unit actuates with during the next learning step;
+- have ``propose() -> float``: the phase the unit actuates with during the next learning step;
 - have ``update(velocity: float) -> bool``: the unit's own measured velocity (mm/cycle) at the proposed phase;
   return whether the trial was accepted (this feeds the acceptance rate). The two calls strictly alternate;
-- expose ``phase``: the kept phase in [0, 1) (also right after construction), recorded every step.
+- expose ``phase``: the kept phase, in [0, 1) right after construction, recorded every step.
+
+Phases are in cycles: a proposed or kept phase that is a finite number outside [0, 1) is wrapped modulo 1 (1.25 is
+0.25, -0.1 is 0.9). Anything else (a bool, a list, None, a string, NaN or an infinity) is refused, and so is a plug-in
+whose ``__init__``, ``propose``, ``update`` or ``phase`` raises (any exception, ``RecursionError`` and ``SystemExit``
+included): the run stops with a ``morphbench.errors.PluginError`` naming the plug-in, the method, the unit and the
+learning step (one line and exit status 2 from ``morphbench run``; a failed run with that reason in a suite).
 
 Each unit gets its own instance and sees only its own measurements. A complete minimal example, a greedy learner
 that keeps a trial only when it measured faster than the kept phase::
@@ -41,10 +47,14 @@ from __future__ import annotations
 import importlib
 import inspect
 import keyword
+import math
+import numbers
+from typing import Any
 
 import numpy as np
 
-from morphbench.errors import ConfigError
+from morphbench.errors import ConfigError, PluginError
+from morphbench.failures import describe
 from morphbench.learning.base import Learner
 from morphbench.learning.baselines import RandomLearner
 from morphbench.learning.metropolis import FlakyLearner, ThermalLearner
@@ -83,16 +93,16 @@ def load_learner_class(spec: str) -> type[Learner]:
         missing = exc.name or ""
         if missing == module_name or module_name.startswith(missing + "."):
             raise fail(f"an importable module {module_name!r} ({exc}; is its directory on sys.path?)") from None
-        raise fail(f"module {module_name!r} to import cleanly (it raised {_describe(exc)})") from None
+        raise fail(f"module {module_name!r} to import cleanly (it raised {describe(exc, where=False)})") from None
     except (Exception, SystemExit) as exc:  # SystemExit too: a plug-in calling sys.exit() must not end the run
-        raise fail(f"module {module_name!r} to import cleanly (it raised {_describe(exc)})") from None
+        raise fail(f"module {module_name!r} to import cleanly (it raised {describe(exc, where=False)})") from None
 
     try:
         cls = getattr(module, class_name)
     except AttributeError:
         raise fail(f"module {module_name!r} to define a class {class_name!r} (it has no such attribute)") from None
     except Exception as exc:  # a module-level __getattr__ may raise anything
-        raise fail(f"module {module_name!r} to define a class {class_name!r} (it raised {_describe(exc)})") from None
+        raise fail(f"module {module_name!r} to define a class {class_name!r} (it raised {describe(exc, where=False)})") from None
     if not inspect.isclass(cls):
         raise fail(f"{class_name!r} to be a class (it is a {type(cls).__name__})")
     missing_methods = [name for name in _METHODS if not callable(getattr(cls, name, None))]
@@ -125,7 +135,7 @@ def make_learners(cls: type, params: LearnerParams, seed: int, n_units: int) -> 
     """One learner per unit, unit i with ``unit_rng(seed, i)``; a failing plug-in raises ConfigError."""
     if n_units < 0:
         raise ValueError(f"n_units must be >= 0, got {n_units}")
-    name = _class_name(cls)
+    name = learner_spec(cls)
     learners = []
     for unit in range(n_units):
         try:
@@ -133,8 +143,8 @@ def make_learners(cls: type, params: LearnerParams, seed: int, n_units: int) -> 
         except ConfigError:
             raise  # already names its source and key (e.g. bad LearnerParams)
         except (Exception, SystemExit) as exc:
-            expected = f"a class constructible as {cls.__name__}(params, rng) (constructing it raised {_describe(exc)})"
-            raise ConfigError(_SOURCE, name, expected) from None
+            raise PluginError(name, "__init__(params, rng)", f"of unit {unit + 1} to construct a learner "
+                              f"{cls.__name__}(params, rng) (constructing it raised {describe(exc)})") from None
         _check_phase(learner, name)
         learners.append(learner)
     return learners
@@ -148,7 +158,7 @@ def _check_phase(learner: object, name: str) -> None:
     except AttributeError:
         raise ConfigError(_SOURCE, name, f"{expected} (it has none)") from None
     except Exception as exc:  # a property may raise anything
-        raise ConfigError(_SOURCE, name, f"{expected} (reading it raised {_describe(exc)})") from None
+        raise ConfigError(_SOURCE, name, f"{expected} (reading it raised {describe(exc)})") from None
     try:
         valid = 0.0 <= float(phase) < 1.0  # False for NaN
     except (TypeError, ValueError, OverflowError):
@@ -157,7 +167,7 @@ def _check_phase(learner: object, name: str) -> None:
         raise ConfigError(_SOURCE, name, expected, phase)
 
 
-def _class_name(cls: type) -> str:
+def learner_spec(cls: type) -> str:
     """How ``--learner`` names ``cls``: its registry key for a built-in, else 'module:ClassName'."""
     for key, builtin in LEARNERS.items():
         if cls is builtin:
@@ -165,5 +175,64 @@ def _class_name(cls: type) -> str:
     return f"{getattr(cls, '__module__', '?')}:{getattr(cls, '__qualname__', cls)}"
 
 
-def _describe(exc: BaseException) -> str:
-    return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+def as_phase(value: Any) -> float | None:
+    """``value`` as a phase in [0, 1) if it is a finite real number (wrapped modulo 1), else None (a bool, a
+    non-number, NaN or an infinity)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        return None
+    try:
+        phase = float(value)
+    except (TypeError, ValueError, OverflowError):  # e.g. an int beyond float range, or a broken __float__
+        return None
+    if not math.isfinite(phase):
+        return None
+    phase %= 1.0
+    return 0.0 if phase == 1.0 else phase  # a tiny negative phase wraps to 1.0 in floating point
+
+
+def call_learner(learner: object, method: str, unit: int, step: int, *args: Any) -> Any:
+    """``learner.method(*args)`` for unit ``unit`` (0-based) at learning step ``step``; whatever it raises becomes one
+    PluginError naming the plug-in, the method, the unit and the step."""
+    try:
+        return getattr(learner, method)(*args)
+    except (Exception, SystemExit) as exc:  # SystemExit too: a plug-in calling sys.exit() must not end the run
+        signature = "update(velocity)" if method == "update" else f"{method}()"
+        raise PluginError(learner_spec(type(learner)), signature,
+                          f"of unit {unit + 1} at learning step {step} to return (it raised {describe(exc)})") from None
+
+
+def kept_phase(learner: object, unit: int, step: int) -> float:
+    """The learner's ``phase`` as a phase in [0, 1) (wrapped modulo 1); a PluginError if reading it raises or it is no
+    finite number."""
+    try:
+        value = learner.phase
+    except (Exception, SystemExit) as exc:  # a property may raise anything
+        raise PluginError(learner_spec(type(learner)), "phase", f"of unit {unit + 1} at learning step {step} to be "
+                          f"readable (reading it raised {describe(exc)})") from None
+    phase = as_phase(value)
+    if phase is None:
+        raise PluginError(learner_spec(type(learner)), "phase",
+                          f"of unit {unit + 1} at learning step {step} to be a finite number (the kept phase)", value)
+    return phase
+
+
+def proposed_phase(learner: object, unit: int, step: int) -> float:
+    """The learner's ``propose()`` as a phase in [0, 1) (wrapped modulo 1); a PluginError if it raises or returns no
+    finite number."""
+    value = call_learner(learner, "propose", unit, step)
+    phase = as_phase(value)
+    if phase is None:
+        raise PluginError(learner_spec(type(learner)), "propose()",
+                          f"of unit {unit + 1} at learning step {step} to return a phase as a finite number", value)
+    return phase
+
+
+def update_accepted(learner: object, unit: int, step: int, velocity: float) -> bool:
+    """The learner's ``update(velocity)`` as a bool; a PluginError if it raises or its value has no truth value."""
+    value = call_learner(learner, "update", unit, step, velocity)
+    try:
+        return bool(value)
+    except Exception as exc:  # e.g. a numpy array of several values
+        raise PluginError(learner_spec(type(learner)), "update(velocity)", f"of unit {unit + 1} at learning step "
+                          f"{step} to return whether it accepted (its value has no truth value: {describe(exc)})",
+                          value) from None
