@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 
 class ConfigError(Exception):
     """Bad input from a file, the command line or a plug-in. The CLI prints it on one line and exits with 2."""
@@ -22,14 +20,6 @@ def require_integer(value: object, source: str, key: str, low: float, high: floa
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
         raise ConfigError(source, key, expected or f"an integer >= {low:g}", value)
     return value
-
-
-def require_number(value: object, source: str, key: str, low: float, strict: bool = False) -> float:
-    """``value`` as a float if it is a finite number >= low (> low if ``strict``); else ConfigError."""
-    ok = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
-    if not ok or (value <= low if strict else value < low):
-        raise ConfigError(source, key, f"a finite number {'>' if strict else '>='} {low:g}", value)
-    return float(value)
 
 
 class PluginError(ConfigError):
