@@ -10,6 +10,7 @@ import argparse
 import json
 import math
 import shutil
+import subprocess
 import sys
 
 import numpy as np
@@ -81,6 +82,15 @@ def test_one_worker_and_a_dask_cluster_give_the_same_tables(reference, tmp_path)
     assert_same_tables(dask.tables, outcome.tables)
     assert_same_tables({name: pd.read_parquet(tmp_path / "cli" / f"{name}.parquet") for name in TABLES},
                        outcome.tables)
+
+
+def test_building_a_report_imports_no_simulator(reference, tmp_path):
+    _, out, _ = reference
+    shutil.copytree(out, tmp_path / "results")
+    code = ("import sys, morphbench.bench.report as r; r.build_report(sys.argv[1]); "
+            "assert 'pybullet' not in sys.modules, 'pybullet imported'")
+    subprocess.run([sys.executable, "-c", code, str(tmp_path / "results")], check=True, timeout=300)
+    assert (tmp_path / "results" / "report.md").is_file()
 
 
 # --- resume ------------------------------------------------------------------------------------------------------

@@ -64,7 +64,6 @@ experiments of a suite is run once. A condition is a run's configuration without
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import itertools
 import json
 import math
@@ -76,6 +75,7 @@ from typing import Any
 import numpy as np
 
 from morphbench import params as P
+from morphbench.bench.identity import config_identity, environment_id, shape_id, shape_identity, stable_hash
 from morphbench.errors import ConfigError
 from morphbench.experiment.events import Event, parse_events
 from morphbench.experiment.run import RunConfig
@@ -100,34 +100,9 @@ SCAN_PART_POINTS = 20
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 
-def stable_hash(data: Any, length: int = 12) -> str:
-    """A short hex digest of canonical JSON: the same data gives the same id on every machine and run."""
-    text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=True, default=_plain)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:length]
-
-
-def _plain(value: Any) -> Any:
-    """numpy values as plain Python ones, for hashing."""
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    raise TypeError(f"cannot hash a {type(value).__name__} in a run configuration")
-
-
-def shape_identity(shape: Shape) -> dict:
-    """What a shape is physically (its bodies, links and actuator) and its name, not where it was loaded from."""
-    data = dataclasses.asdict(shape)
-    data.pop("source", None)
-    data.pop("description", None)
-    return data
-
-
 def body_cost(shape: Shape) -> float:
     """Relative wall time of one cycle of a shape (measured: about bodies^1.15 on chains of 3 to 21 bodies)."""
     return float(len(shape.bodies)) ** 1.15
-
-
-def shape_id(shape: Shape) -> str:
-    return stable_hash(shape_identity(shape))
 
 
 @dataclass(frozen=True)
@@ -165,13 +140,25 @@ class ScanSpec:
 
 
 @dataclass(frozen=True)
+class ScanPart:
+    """The payload of a scan job: the points of one part of a scan and what each point needs."""
+
+    shape: Shape
+    phases: np.ndarray
+    physics: P.PhysicsParams
+    cycles: int
+    discard: int
+    environment: P.EnvironmentParams
+
+
+@dataclass(frozen=True)
 class Job:
     """A unit of work for an executor: a run, or a part of a scan. ``payload`` is all a worker needs."""
 
     id: str
     kind: str
     """'run' or 'scan'."""
-    payload: Any
+    payload: RunConfig | ScanPart
     cost: float
 
 
@@ -202,8 +189,8 @@ class Suite:
             per_point = (scan.cycles + scan.discard) * body_cost(scan.shape)
             for k, part_id in enumerate(scan.part_ids()):
                 phases = scan.phases[k * SCAN_PART_POINTS:(k + 1) * SCAN_PART_POINTS]
-                payload = (scan.shape, phases, scan.physics, scan.cycles, scan.discard, scan.environment)
-                jobs.append(Job(part_id, "scan", payload, per_point * len(phases)))
+                part = ScanPart(scan.shape, phases, scan.physics, scan.cycles, scan.discard, scan.environment)
+                jobs.append(Job(part_id, "scan", part, per_point * len(phases)))
         return jobs
 
     def plan(self) -> dict:
@@ -326,7 +313,7 @@ def _expand_experiment(table: dict, name: str, runs: dict[str, RunSpec], ctx: _C
             config = RunConfig(shape=shape, learner=learner, learner_params=lp, sensor=sensor,
                                environment=environment, events=events[id(shape)],
                                physics=P.PHYSICS_PRESETS[preset], steps=n_steps, seed=seed)
-            identity = config_identity(config, noise, preset)
+            identity = config_identity(config, preset)
             run_id = stable_hash(identity)
             del identity["seed"]
             condition_id = stable_hash(identity)
@@ -342,31 +329,6 @@ def _expand_experiment(table: dict, name: str, runs: dict[str, RunSpec], ctx: _C
             conditions.append(condition)
     varying = tuple(k for k in conditions[0] if len({json.dumps(c[k]) for c in conditions}) > 1)
     return Experiment(name, description, tuple(run_ids), tuple(condition_ids), varying)
-
-
-def config_identity(config: RunConfig, noise: float, preset: str) -> dict:
-    """Everything that determines a run's records, JSON-ready, the shape by content (what its id hashes)."""
-    data: dict[str, Any] = {}
-    for f in dataclasses.fields(config):
-        value = getattr(config, f.name)
-        if isinstance(value, Shape):
-            value = shape_identity(value)
-        elif dataclasses.is_dataclass(value):
-            value = dataclasses.asdict(value)
-        elif f.name == "events":  # as RunConfig.to_dict writes them: each event's own fields
-            value = [{k: v for k, v in dataclasses.asdict(e).items() if v is not None} for e in value]
-        data[f.name] = value
-    data["noise"] = noise
-    data["physics_preset"] = preset
-    return data
-
-
-def environment_id(environment: P.EnvironmentParams) -> str:
-    """A hash of the ground a run or scan moves on (the environment without measurement noise, which changes what
-    learners measure, not the landscape): a scan's best Ubar is compared with the runs in the same environment."""
-    data = dataclasses.asdict(environment)
-    data.pop("noise", None)
-    return stable_hash(data)
 
 
 def events_summary(events: tuple[Event, ...]) -> str:
