@@ -6,24 +6,22 @@ A suite file is TOML::
     description = "what this suite is for"
 
     [defaults]                          # optional: any experiment key, used where an experiment leaves it out
-    steps = 10
+    steps = 10                          #   (tables merge key by key)
     seeds = 2
 
-    [[experiment]]                      # a matrix: every combination of the listed values is one condition,
-    name = "S4"                         #   and every condition is run once per seed
-    description = "Thermal vs Flaky with measurement noise"
-    shapes = ["../shapes/chain-3.toml"] # morphology files, relative to the suite file
-    learners = ["thermal", "flaky"]     # thermal, flaky, random or a plug-in package.module:Class
-    noise = [0.0, 0.5, 1.0]             # mm/cycle, Gaussian noise on each measured velocity
-    seeds = 10                          # seeds 0..9, or a list of distinct seeds: [0, 3, 7]
+    [[experiment]]                      # a run configuration (morphbench.experiment.config) in which any value
+    name = "S4"                         #   may be a list: every combination of the lists is one condition, and
+    description = "Thermal vs Flaky with measurement noise"    # every condition is run once per seed
+    shape = "../shapes/chain-3.toml"    # relative to the suite file (a list sweeps shapes)
+    seeds = 10                          # seeds 0..9; or seed = 3, or seed = [0, 3, 7]
     steps = 300                         # learning steps (a number or a list of numbers)
-    physics = "default"                 # default, fast, reference or quasistatic (or a list)
-    environments = [{}, {friction_field = {amplitude = 0.3}}]   # an axis of EnvironmentParams tables (see below)
-    [experiment.learner_params]         # morphbench.params.LearnerParams fields; a list sweeps the field
-    step_size = [0.1, 0.025]
-    temperature = 0.5
-    [experiment.sensor]                 # morphbench.params.SensorParams fields (a list sweeps), kind "ideal" by
-    kind = "ideal"                      #   default in suites; [experiment.sensor.optical] for an optical one
+    learner = {name = ["thermal", "flaky"], step_size = [0.1, 0.025]}   # name and LearnerParams fields
+    [experiment.environment]            # EnvironmentParams fields, as a run file's [environment]
+    noise = [0.0, 0.5, 1.0]             # mm/cycle, Gaussian noise on each measured velocity
+    [experiment.physics]                # preset (default, fast, reference, quasistatic) and PhysicsParams fields
+    preset = "default"
+    [experiment.sensor]                 # SensorParams fields; suites measure with kind = "ideal" unless told
+    kind = "ideal"
     [[experiment.events]]               # events applied to every run of the experiment (morphbench.experiment.events)
     step = 150
     kind = "damage"
@@ -34,30 +32,37 @@ A suite file is TOML::
     shape = "../shapes/chain-2.toml"
     resolution = 20                     # points per phase axis (up to 3 units; beyond: `samples` seeded points)
     cycles = 12                         # cycles measured per point (default 12), after `discard` (default 2)
+    physics = "default"                 # a preset
     environment = {friction_scale = 1.5}   # optional: the EnvironmentParams the scan runs in (no noise: scans
                                            #   measure the true velocity)
 
-Environments: ``environments`` is an axis like the others, a list of tables each read as a run configuration's
-``[environment]`` (morphbench.shapes.params_from_table: friction_scale, vibration, noise and the
-friction_field and ground sub-tables), inline (``environments = [{}, {friction_scale = 1.5}]``) or as
-``[[experiment.environments]]`` tables. A table may have a ``name``: the label of the environment in the condition
-columns (``environment``); without one the label lists the table's settings (``friction_field.amplitude=0.3``, or
-``default`` for ``{}``). Labels must differ within an experiment. Measurement noise is either the ``noise`` axis or an
-environment's ``noise``, never both (ConfigError).
+Axes: every list is an axis, at any depth (``[experiment.physics] timestep = [0.005, 0.01]``), except ``events``,
+one list of event tables applied to every run. A list of tables is an axis of tables, each of which may sweep its
+own fields: ``environment = [{name = "uniform", noise = [0.0, 0.5]}, {friction_scale = 1.5}]``. The values of a
+list must differ. Each combination is read by ``run_config_from_table``, so a suite accepts, refuses and names
+exactly what a run file does, under ``experiment[NAME].`` (``experiment[S4].environment.noise``); an event after
+an experiment's last step is refused too (it would never happen). ``seeds = N`` (seeds 0..N-1) is the one key a
+run file does not have.
 
-Events: ``events`` is one array of event tables (``[[experiment.events]]``, as a run configuration's ``[[events]]``),
-applied to every run of the experiment and checked against each of its shapes (a damaged unit or a cut link out of
-range is a ConfigError naming the suite file and ``experiment[NAME].events[i].unit``) and its steps (an event after
-the last step would never happen). The condition column ``events`` summarises them (``step 150 damage unit=2
-mode=no-inflate``; ``none`` without events).
+Environments: a table may have a ``name``, the label of the environment in the condition column ``environment``;
+without one the label lists the table's settings but its noise, which has a column of its own
+(``friction_field.amplitude=0.3``, or ``default``). Different grounds need different labels. The column
+``environment_id`` is a hash of the ground (the environment without noise). The column ``physics`` is the preset,
+followed by any fields set beside it (``quasistatic, timestep=0.005``). The column ``events`` summarises the events
+(``step 150 damage unit=2 mode=no-inflate``; ``none`` without events).
+
+The first suites' keys are still read, as aliases of the run-configuration keys: ``shapes`` (``shape``),
+``learners`` (``learner.name``), ``[experiment.learner_params]`` (``learner.*``), ``noise`` (``environment.noise``,
+in each environment), ``environments`` (``environment``, a list of tables), ``seeds = [...]`` (``seed``) and
+``physics = "fast"`` (``physics.preset``). A value given both ways in one table is a ConfigError.
 
 Every key is checked: an unknown key, a value of the wrong type or out of range, a missing morphology file or an
-unusable learner raises ``ConfigError`` naming the suite file and the key (``experiment[S4].noise``).
+unusable learner raises ``ConfigError`` naming the suite file and the key as written (``experiment[S4].noise``).
 
 Each run's id is a hash of everything that determines its records (the shape's content, not its path; the
-learner, its parameters, sensor, environment, events and physics parameters, noise, steps, seed), so the same run has
-the same id in any
-suite, any directory and on any machine: a results directory skips the runs it already holds, and a run listed by two
+learner, its parameters, sensor, environment, events and physics parameters, noise, steps, seed:
+morphbench.bench.identity), so the same run has the same id in any suite, written with either keys, in any
+directory and on any machine: a results directory skips the runs it already holds, and a run listed by two
 experiments of a suite is run once. A condition is a run's configuration without its seed; its id is a hash too.
 """
 

@@ -28,7 +28,8 @@
     mode = "no-inflate"
 
 ``morphbench run FILE`` takes a run configuration or a bare morphology file (then everything else is default);
-command-line options override the file.
+command-line options override the file. A suite experiment (morphbench.bench.suite) is a run configuration whose
+values may be lists; each combination is read by ``run_config_from_table``.
 """
 
 from __future__ import annotations
