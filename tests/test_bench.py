@@ -10,6 +10,7 @@ import argparse
 import json
 import math
 import shutil
+import subprocess
 import sys
 
 import numpy as np
@@ -81,6 +82,15 @@ def test_one_worker_and_a_dask_cluster_give_the_same_tables(reference, tmp_path)
     assert_same_tables(dask.tables, outcome.tables)
     assert_same_tables({name: pd.read_parquet(tmp_path / "cli" / f"{name}.parquet") for name in TABLES},
                        outcome.tables)
+
+
+def test_building_a_report_imports_no_simulator(reference, tmp_path):
+    _, out, _ = reference
+    shutil.copytree(out, tmp_path / "results")
+    code = ("import sys, morphbench.bench.report as r; r.build_report(sys.argv[1]); "
+            "assert 'pybullet' not in sys.modules, 'pybullet imported'")
+    subprocess.run([sys.executable, "-c", code, str(tmp_path / "results")], check=True, timeout=300)
+    assert (tmp_path / "results" / "report.md").is_file()
 
 
 # --- resume ------------------------------------------------------------------------------------------------------
@@ -309,6 +319,113 @@ def test_environments_are_an_axis_and_events_apply_to_every_run_of_an_experiment
     assert set(usual.experiments[0].run_ids) < plain_ids  # the default environment, no events: the same runs
 
 
+EVENTS = """
+    [[experiment.events]]
+    step = 3
+    kind = "damage"
+    unit = 1
+    mode = "stuck"
+"""
+
+
+def test_a_suite_in_the_old_keys_and_in_run_configuration_keys_gives_the_same_runs(tmp_path):
+    chain2, chain3 = SHAPES / "chain-2.toml", SHAPES / "chain-3.toml"
+    old = f"""
+        [defaults]
+        steps = 6
+        seeds = [2, 5]
+        physics = ["default", "quasistatic"]
+        [[experiment]]
+        name = "a"
+        shapes = ["{chain2}", "{chain3}"]
+        learners = ["thermal", "random"]
+        noise = [0.0, 0.3]
+        environments = [{{}}, {{friction_scale = 1.5}}, {{name = "field", friction_field = {{amplitude = 0.2}}}}]
+        [experiment.learner_params]
+        step_size = [0.1, 0.05]
+        temperature = 0.25
+        [experiment.sensor]
+        sample_period = [0.125, 0.25]
+        {EVENTS}
+        [[experiment]]
+        name = "b"
+        shapes = "{chain2}"
+        seeds = 3
+        steps = [4, 6]
+        physics = "fast"
+        [[experiment.environments]]
+        noise = 0.7
+        vibration = 0.8
+        [[experiment.environments]]
+        name = "quiet"
+    """
+    new = f"""
+        [defaults]
+        steps = 6
+        seed = [2, 5]
+        physics = {{preset = ["default", "quasistatic"]}}
+        [[experiment]]
+        name = "a"
+        shape = ["{chain2}", "{chain3}"]
+        learner = {{name = ["thermal", "random"], step_size = [0.1, 0.05], temperature = 0.25}}
+        sensor = {{sample_period = [0.125, 0.25]}}
+        environment = [
+            {{noise = [0.0, 0.3]}},
+            {{friction_scale = 1.5, noise = [0.0, 0.3]}},
+            {{name = "field", friction_field = {{amplitude = 0.2}}, noise = [0.0, 0.3]}},
+        ]
+        {EVENTS}
+        [[experiment]]
+        name = "b"
+        shape = "{chain2}"
+        seed = [0, 1, 2]
+        steps = [4, 6]
+        environment = [{{noise = 0.7, vibration = 0.8}}, {{name = "quiet"}}]
+        [experiment.physics]
+        preset = "fast"
+    """
+    before, after = (load_suite(write_suite(tmp_path, text, f"{name}.toml")) for name, text in (("old", old),
+                                                                                               ("new", new)))
+    assert len(before.runs) == 2 * 2 * 2 * 2 * 3 * 2 * 2 * 2 + 2 * 2 * 3
+    assert before.plan()["runs"] == after.plan()["runs"] and before.experiments == after.experiments
+    assert [job.id for job in before.jobs()] == [job.id for job in after.jobs()]
+    b = after.experiments[1]
+    assert {after.runs[i].condition["environment"] for i in b.run_ids} == {"vibration=0.8", "quiet"}
+    # the ids the code before run-configuration keys gave these runs: their results directories still resume
+    assert list(before.runs)[:3] == ["06c6f5b6d90b", "d19c2c087311", "4f0893e86138"]
+
+
+def test_anything_a_run_configuration_sets_a_suite_can_sweep(tmp_path):
+    suite = load_suite(write_suite(tmp_path, f"""
+        [defaults]
+        environment = {{noise = 0.5}}
+        [[experiment]]
+        name = "sweep"
+        shape = "{SHAPES / 'chain-2.toml'}"
+        steps = 4
+        learner = {{initial_memory = ["measure", "zero"]}}
+        environment = {{friction_field = {{amplitude = [0.0, 0.3], two_d = true}}}}
+        [experiment.physics]
+        preset = "quasistatic"
+        timestep = [0.005, 0.01]
+        [[experiment]]
+        name = "override"
+        shape = "{SHAPES / 'chain-2.toml'}"
+        environment = [{{name = "loud", noise = 1.0}}, {{name = "calm"}}]
+    """))
+    sweep, override = suite.experiments
+    runs = [suite.runs[i] for i in sweep.run_ids]
+    assert len(runs) == 8 and set(sweep.varying) == {"initial_memory", "environment", "environment_id", "physics"}
+    assert [r.config.physics.timestep for r in runs[:2]] == [0.005, 0.01]
+    assert {r.config.physics.backend for r in runs} == {"quasistatic"}
+    assert {r.condition["physics"] for r in runs} == {"quasistatic, timestep=0.005", "quasistatic, timestep=0.01"}
+    assert {r.condition["environment"] for r in runs} == {f"friction_field.amplitude={a}, friction_field.two_d=True"
+                                                          for a in (0.0, 0.3)}
+    assert {r.config.environment.noise for r in runs} == {0.5}  # from [defaults]
+    # an experiment's value wins over the defaults', in every one of its environments that does not set its own
+    assert [suite.runs[i].config.environment.noise for i in override.run_ids] == [1.0, 0.5]
+
+
 def test_a_suite_with_environments_events_and_a_scan_environment_runs_and_records_them(tmp_path):
     path = write_suite(tmp_path, f"""
         [[experiment]]
@@ -357,7 +474,7 @@ def test_a_suite_with_environments_events_and_a_scan_environment_runs_and_record
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\n[experiment.learner_params]\ntemperature = [1, "hot"]',
      "experiment[x].learner_params.temperature", "a number >= 0 or inf (mm/cycle), got 'hot'"),
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nenvironments = ["slippery"]', "experiment[x].environments",
-     "list of environment tables"),
+     "a table"),
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nenvironments = [{{frictionscale = 2}}]',
      "experiment[x].environments[0].frictionscale", "known keys"),
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\n[[experiment.environments]]\n[[experiment.environments]]\n'
@@ -365,11 +482,22 @@ def test_a_suite_with_environments_events_and_a_scan_environment_runs_and_record
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nenvironments = [{{name = "a"}}, {{name = "a", vibration = 0.8}}]',
      "experiment[x].environments[1].name", "a label no other"),
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nnoise = [0.5]\nenvironments = [{{noise = 1.0}}]',
-     "experiment[x].environments[0].noise", "no noise here"),
-    ('[defaults]\nnoise = 0.5\n[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nenvironments = [{{noise = 1.0}}]',
-     "experiment[x].environments[0].noise", "no noise here"),
-    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nenvironment = {{friction_scale = 2}}', "experiment[x].environment",
-     "environments = ["),
+     "experiment[x].environments[0].noise", "one value (the old key 'noise' gives it too)"),
+    ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nshape = "{chain2}"', "experiment[x].shape",
+     "the old key 'shapes'"),
+    ('[[experiment]]\nname = "x"\nshape = "{chain2}"\nlearners = ["flaky"]\nlearner = {{name = "thermal"}}',
+     "experiment[x].learner.name", "the old key 'learners'"),
+    ('[[experiment]]\nname = "x"\nshape = "{chain2}"\nenvironment = {{friction_scale = [2, -1]}}',
+     "experiment[x].environment.friction_scale", "a finite number > 0"),
+    ('[[experiment]]\nname = "x"\nshape = "{chain2}"\nphysics = {{preset = "fast", timestep = [0.01, 0]}}',
+     "experiment[x].physics.timestep", "a finite number > 0 (s)"),
+    ('[[experiment]]\nname = "x"\nshape = "{chain2}"\nphysics = ["fast", "turbo"]', "experiment[x].physics",
+     "one of default"),
+    ('[[experiment]]\nname = "x"\nshape = "{chain2}"\nseeds = [1, -1]', "experiment[x].seeds", "an integer >= 0"),
+    ('[[experiment]]\nname = "x"\nshape = "{chain2}"\nseed = [1, 1]', "experiment[x].seed", "distinct values"),
+    ('[[experiment]]\nname = "x"\nshape = "{chain2}"\nsteps = []', "experiment[x].steps", "a non-empty list"),
+    ('[[experiment]]\nname = "x"\nshape = "{chain2}"\nenvironment = [{{name = "a"}}, {{name = "b"}}]',
+     "experiment[x].environment[1]", "distinct environments"),
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteps = 10\n[[experiment.events]]\nstep = 2\nkind = "damage"\n'
      'unit = 3\nmode = "no-inflate"', "experiment[x].events[0].unit", "[1, 2] (shape chain-2)"),
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteps = 10\n[[experiment.events]]\nstep = 2\nkind = "cut"\n'

@@ -44,10 +44,12 @@ def _run(config) -> dict[str, Any]:
     return {"status": "done", "steps": steps, "units": records.units(), "summary": records.summary()}
 
 
-def _scan(payload) -> dict[str, Any]:
-    shape, phases, physics, cycles, discard, environment = payload
-    ubar = [ScanPoint(shape, p, physics, cycles, discard, environment).ubar() for p in phases]
-    points = pd.DataFrame(np.asarray(phases)[:, 1:], columns=[f"dphi_{i}" for i in range(2, shape.n_units + 1)])
+def _scan(part) -> dict[str, Any]:
+    """A ``suite.ScanPart``: Ubar at each of its points."""
+    ubar = [ScanPoint(part.shape, p, part.physics, part.cycles, part.discard, part.environment).ubar()
+            for p in part.phases]
+    columns = [f"dphi_{i}" for i in range(2, part.shape.n_units + 1)]
+    points = pd.DataFrame(np.asarray(part.phases)[:, 1:], columns=columns)
     points["ubar"] = ubar
     bad = np.flatnonzero(~np.isfinite(points.ubar.to_numpy()))
     if len(bad):

@@ -29,8 +29,10 @@ import math
 import numpy as np
 import pandas as pd
 
+from morphbench.bench.identity import environment_id
 from morphbench.bench.store import SUMMARY_COLUMNS
 from morphbench.experiment.records import final_value
+from morphbench.params import EnvironmentParams
 
 THRESHOLD = 0.8
 PLATEAU_SPANS = 3.0
@@ -226,10 +228,7 @@ def scan_best(scans: pd.DataFrame) -> dict[tuple, float]:
 
 @functools.cache
 def _default_ground() -> str:
-    """The environment id of the default ground (suite.environment_id, imported here on first use: the suite module
-    imports the run loop and with it the simulator, which importing the metrics must not)."""
-    from morphbench.bench.suite import environment_id
-    from morphbench.params import EnvironmentParams
+    """The environment id of the default ground."""
     return environment_id(EnvironmentParams())
 
 

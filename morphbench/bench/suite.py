@@ -6,24 +6,22 @@ A suite file is TOML::
     description = "what this suite is for"
 
     [defaults]                          # optional: any experiment key, used where an experiment leaves it out
-    steps = 10
+    steps = 10                          #   (tables merge key by key)
     seeds = 2
 
-    [[experiment]]                      # a matrix: every combination of the listed values is one condition,
-    name = "S4"                         #   and every condition is run once per seed
-    description = "Thermal vs Flaky with measurement noise"
-    shapes = ["../shapes/chain-3.toml"] # morphology files, relative to the suite file
-    learners = ["thermal", "flaky"]     # thermal, flaky, random or a plug-in package.module:Class
-    noise = [0.0, 0.5, 1.0]             # mm/cycle, Gaussian noise on each measured velocity
-    seeds = 10                          # seeds 0..9, or a list of distinct seeds: [0, 3, 7]
+    [[experiment]]                      # a run configuration (morphbench.experiment.config) in which any value
+    name = "S4"                         #   may be a list: every combination of the lists is one condition, and
+    description = "Thermal vs Flaky with measurement noise"    # every condition is run once per seed
+    shape = "../shapes/chain-3.toml"    # relative to the suite file (a list sweeps shapes)
+    seeds = 10                          # seeds 0..9; or seed = 3, or seed = [0, 3, 7]
     steps = 300                         # learning steps (a number or a list of numbers)
-    physics = "default"                 # default, fast, reference or quasistatic (or a list)
-    environments = [{}, {friction_field = {amplitude = 0.3}}]   # an axis of EnvironmentParams tables (see below)
-    [experiment.learner_params]         # morphbench.params.LearnerParams fields; a list sweeps the field
-    step_size = [0.1, 0.025]
-    temperature = 0.5
-    [experiment.sensor]                 # morphbench.params.SensorParams fields (a list sweeps), kind "ideal" by
-    kind = "ideal"                      #   default in suites; [experiment.sensor.optical] for an optical one
+    learner = {name = ["thermal", "flaky"], step_size = [0.1, 0.025]}   # name and LearnerParams fields
+    [experiment.environment]            # EnvironmentParams fields, as a run file's [environment]
+    noise = [0.0, 0.5, 1.0]             # mm/cycle, Gaussian noise on each measured velocity
+    [experiment.physics]                # preset (default, fast, reference, quasistatic) and PhysicsParams fields
+    preset = "default"
+    [experiment.sensor]                 # SensorParams fields; suites measure with kind = "ideal" unless told
+    kind = "ideal"
     [[experiment.events]]               # events applied to every run of the experiment (morphbench.experiment.events)
     step = 150
     kind = "damage"
@@ -34,37 +32,43 @@ A suite file is TOML::
     shape = "../shapes/chain-2.toml"
     resolution = 20                     # points per phase axis (up to 3 units; beyond: `samples` seeded points)
     cycles = 12                         # cycles measured per point (default 12), after `discard` (default 2)
+    physics = "default"                 # a preset
     environment = {friction_scale = 1.5}   # optional: the EnvironmentParams the scan runs in (no noise: scans
                                            #   measure the true velocity)
 
-Environments: ``environments`` is an axis like the others, a list of tables each read as a run configuration's
-``[environment]`` (morphbench.shapes.params_from_table: friction_scale, vibration, noise and the
-friction_field and ground sub-tables), inline (``environments = [{}, {friction_scale = 1.5}]``) or as
-``[[experiment.environments]]`` tables. A table may have a ``name``: the label of the environment in the condition
-columns (``environment``); without one the label lists the table's settings (``friction_field.amplitude=0.3``, or
-``default`` for ``{}``). Labels must differ within an experiment. Measurement noise is either the ``noise`` axis or an
-environment's ``noise``, never both (ConfigError).
+Axes: every list is an axis, at any depth (``[experiment.physics] timestep = [0.005, 0.01]``), except ``events``,
+one list of event tables applied to every run. A list of tables is an axis of tables, each of which may sweep its
+own fields: ``environment = [{name = "uniform", noise = [0.0, 0.5]}, {friction_scale = 1.5}]``. The values of a
+list must differ. Each combination is read by ``run_config_from_table``, so a suite accepts, refuses and names
+exactly what a run file does, under ``experiment[NAME].`` (``experiment[S4].environment.noise``); an event after
+an experiment's last step is refused too (it would never happen). ``seeds = N`` (seeds 0..N-1) is the one key a
+run file does not have.
 
-Events: ``events`` is one array of event tables (``[[experiment.events]]``, as a run configuration's ``[[events]]``),
-applied to every run of the experiment and checked against each of its shapes (a damaged unit or a cut link out of
-range is a ConfigError naming the suite file and ``experiment[NAME].events[i].unit``) and its steps (an event after
-the last step would never happen). The condition column ``events`` summarises them (``step 150 damage unit=2
-mode=no-inflate``; ``none`` without events).
+Environments: a table may have a ``name``, the label of the environment in the condition column ``environment``;
+without one the label lists the table's settings but its noise, which has a column of its own
+(``friction_field.amplitude=0.3``, or ``default``). Different grounds need different labels. The column
+``environment_id`` is a hash of the ground (the environment without noise). The column ``physics`` is the preset,
+followed by any fields set beside it (``quasistatic, timestep=0.005``). The column ``events`` summarises the events
+(``step 150 damage unit=2 mode=no-inflate``; ``none`` without events).
+
+The first suites' keys are still read, as aliases of the run-configuration keys: ``shapes`` (``shape``),
+``learners`` (``learner.name``), ``[experiment.learner_params]`` (``learner.*``), ``noise`` (``environment.noise``,
+in each environment), ``environments`` (``environment``, a list of tables), ``seeds = [...]`` (``seed``) and
+``physics = "fast"`` (``physics.preset``). A value given both ways in one table is a ConfigError.
 
 Every key is checked: an unknown key, a value of the wrong type or out of range, a missing morphology file or an
-unusable learner raises ``ConfigError`` naming the suite file and the key (``experiment[S4].noise``).
+unusable learner raises ``ConfigError`` naming the suite file and the key as written (``experiment[S4].noise``).
 
 Each run's id is a hash of everything that determines its records (the shape's content, not its path; the
-learner, its parameters, sensor, environment, events and physics parameters, noise, steps, seed), so the same run has
-the same id in any
-suite, any directory and on any machine: a results directory skips the runs it already holds, and a run listed by two
+learner, its parameters, sensor, environment, events and physics parameters, noise, steps, seed:
+morphbench.bench.identity), so the same run has the same id in any suite, written with either keys, in any
+directory and on any machine: a results directory skips the runs it already holds, and a run listed by two
 experiments of a suite is run once. A condition is a run's configuration without its seed; its id is a hash too.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import itertools
 import json
 import math
@@ -76,23 +80,26 @@ from typing import Any
 import numpy as np
 
 from morphbench import params as P
+from morphbench.bench.identity import config_identity, environment_id, shape_id, shape_identity, stable_hash
 from morphbench.errors import ConfigError
-from morphbench.experiment.events import Event, parse_events
+from morphbench.experiment.config import RUN_KEYS, run_config_from_table
+from morphbench.experiment.events import Event
 from morphbench.experiment.run import RunConfig
 from morphbench.experiment.scan import DEFAULT_CYCLES, DEFAULT_DISCARD, scan_phases
 from morphbench.files import read_toml_with_text
-from morphbench.learning import load_learner_class
 from morphbench.shapes import Shape, load_shape, params_from_table
 
-AXIS_KEYS = ("shapes", "learners", "learner_params", "sensor", "noise", "environments", "events", "seeds", "steps",
-             "physics")
-EXPERIMENT_KEYS = ("name", "description", *AXIS_KEYS)
+ALIASES = ("shapes", "learners", "learner_params", "noise", "environments", "seeds")
+"""The first suites' keys, still read: translated into run-configuration keys (_translate)."""
+EXPERIMENT_KEYS = ("name", *RUN_KEYS, *ALIASES)
+DEFAULT_KEYS = tuple(k for k in EXPERIMENT_KEYS if k not in ("name", "description"))
 SCAN_KEYS = ("name", "shape", "resolution", "samples", "cycles", "discard", "seed", "physics", "environment")
 SUITE_KEYS = ("name", "description", "defaults", "experiment", "scan")
-FUTURE_KEYS = {
-    "environment": "an experiment's environments are a list: environments = [{...}, ...] or [[experiment.environments]]",
-}
-"""Keys that are easy to mistake for a known one: rejected with a message that points to the right one."""
+AXIS_ORDER = ("shape", "learner", "sensor", "environment", "steps", "physics")
+"""The matrix's axes, the first varying slowest: runs are listed in the order the first suites listed them."""
+SUITE_DEFAULTS = {"sensor": {"kind": "ideal"}}
+"""Suites score the true velocity and run thousands of learning runs: they measure with the ideal sensor (10%
+cheaper than the optical one) unless told otherwise."""
 
 SCAN_PART_POINTS = 20
 """A scan is split into jobs of this many points, so its points spread over the workers like runs do."""
@@ -100,34 +107,9 @@ SCAN_PART_POINTS = 20
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 
-def stable_hash(data: Any, length: int = 12) -> str:
-    """A short hex digest of canonical JSON: the same data gives the same id on every machine and run."""
-    text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=True, default=_plain)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:length]
-
-
-def _plain(value: Any) -> Any:
-    """numpy values as plain Python ones, for hashing."""
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    raise TypeError(f"cannot hash a {type(value).__name__} in a run configuration")
-
-
-def shape_identity(shape: Shape) -> dict:
-    """What a shape is physically (its bodies, links and actuator) and its name, not where it was loaded from."""
-    data = dataclasses.asdict(shape)
-    data.pop("source", None)
-    data.pop("description", None)
-    return data
-
-
 def body_cost(shape: Shape) -> float:
     """Relative wall time of one cycle of a shape (measured: about bodies^1.15 on chains of 3 to 21 bodies)."""
     return float(len(shape.bodies)) ** 1.15
-
-
-def shape_id(shape: Shape) -> str:
-    return stable_hash(shape_identity(shape))
 
 
 @dataclass(frozen=True)
@@ -165,13 +147,25 @@ class ScanSpec:
 
 
 @dataclass(frozen=True)
+class ScanPart:
+    """The payload of a scan job: the points of one part of a scan and what each point needs."""
+
+    shape: Shape
+    phases: np.ndarray
+    physics: P.PhysicsParams
+    cycles: int
+    discard: int
+    environment: P.EnvironmentParams
+
+
+@dataclass(frozen=True)
 class Job:
     """A unit of work for an executor: a run, or a part of a scan. ``payload`` is all a worker needs."""
 
     id: str
     kind: str
     """'run' or 'scan'."""
-    payload: Any
+    payload: RunConfig | ScanPart
     cost: float
 
 
@@ -202,8 +196,8 @@ class Suite:
             per_point = (scan.cycles + scan.discard) * body_cost(scan.shape)
             for k, part_id in enumerate(scan.part_ids()):
                 phases = scan.phases[k * SCAN_PART_POINTS:(k + 1) * SCAN_PART_POINTS]
-                payload = (scan.shape, phases, scan.physics, scan.cycles, scan.discard, scan.environment)
-                jobs.append(Job(part_id, "scan", payload, per_point * len(phases)))
+                part = ScanPart(scan.shape, phases, scan.physics, scan.cycles, scan.discard, scan.environment)
+                jobs.append(Job(part_id, "scan", part, per_point * len(phases)))
         return jobs
 
     def plan(self) -> dict:
@@ -239,7 +233,9 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
     defaults = table.get("defaults", {})
     if not isinstance(defaults, dict):
         raise ConfigError(source, "defaults", "a table of experiment keys", defaults)
-    _check_keys(defaults, AXIS_KEYS, source, "defaults.")
+    _check_keys(defaults, DEFAULT_KEYS, source, "defaults.")
+    defaults, default_names = _translate(defaults, source, "defaults.")
+    defaults = _merge(SUITE_DEFAULTS, defaults)
     experiments = _array_of_tables(table, "experiment", source)
     scans = _array_of_tables(table, "scan", source)
     if not experiments and not scans:
@@ -248,12 +244,19 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
     ctx = _Context(source, base)
     seen: set[str] = set()
     for index, raw in enumerate(experiments, start=1):
-        merged = {**defaults, **raw}
         exp_name = _name(raw.get("name", f"experiment-{index}"), source, f"experiment[{index}].name")
         if exp_name in seen:
             raise ConfigError(source, f"experiment[{index}].name", "a name no other experiment has", exp_name)
         seen.add(exp_name)
-        suite.experiments.append(_expand_experiment(merged, exp_name, suite.runs, ctx))
+        where = f"experiment[{exp_name}]"
+        _check_keys(raw, EXPERIMENT_KEYS, source, f"{where}.")
+        exp_description = _string(raw.get("description", ""), source, f"{where}.description")
+        own, names = _translate({k: v for k, v in raw.items() if k not in ("name", "description")}, source,
+                                f"{where}.")
+        merged = _merge(defaults, {k: v for k, v in own.items() if k != "events"})
+        merged["events"] = own.get("events", defaults.get("events", []))  # an experiment's events replace the defaults'
+        suite.experiments.append(_expand_experiment(merged, {**default_names, **names}, exp_name, exp_description,
+                                                    suite.runs, ctx))
     scan_names: set[str] = set()
     for index, raw in enumerate(scans, start=1):
         spec = _expand_scan(raw, index, ctx)
@@ -272,69 +275,172 @@ class _Context:
     base: Path
     shapes: dict = field(default_factory=dict)
 
+    def load(self, path: Path) -> Shape:
+        """A morphology file, read once per suite (a malformed one names itself and its key)."""
+        if path not in self.shapes:
+            self.shapes[path] = load_shape(path)
+        return self.shapes[path]
+
     def shape(self, value: Any, key: str) -> Shape:
         if not isinstance(value, str) or not value:
             raise ConfigError(self.source, key, "the path of a morphology file (a string)", value)
-        path = Path(value)
-        if not path.is_absolute():
-            path = self.base / path
-        if path not in self.shapes:
-            if not path.is_file():
-                raise ConfigError(self.source, key, f"existing morphology files (there is no file {path})", value)
-            self.shapes[path] = load_shape(path)  # a malformed shape file names itself and its key
-        return self.shapes[path]
+        path = self.base / value  # an absolute value stays itself
+        if not path.is_file():
+            raise ConfigError(self.source, key, f"an existing morphology file (there is no file {path})", value)
+        return self.load(path)
 
 
-def _expand_experiment(table: dict, name: str, runs: dict[str, RunSpec], ctx: _Context) -> Experiment:
+# --- an experiment: a run configuration whose lists are the axes of a matrix ------------------------------------
+
+
+def _translate(table: dict, src: str, prefix: str) -> tuple[dict, dict[str, str]]:
+    """A table of experiment keys with the old keys (ALIASES, ``physics = "preset"``) in run-configuration form, and
+    what each translated key was called in the file (for messages). A value given both ways is a ConfigError."""
+    table = dict(table)
+    names: dict[str, str] = {}
+
+    def both(key: str, alias: str) -> ConfigError:
+        return ConfigError(src, f"{prefix}{_rename(key, names)}", f"one value (the old key '{alias}' gives it too)")
+
+    def move(alias: str, key: str) -> None:
+        if alias in table:
+            if key in table:
+                raise both(key, alias)
+            table[key] = table.pop(alias)
+            names[key] = alias
+
+    def insert(key: str, field_name: str, value: Any, alias: str) -> None:
+        """``value`` as ``field_name`` of the table ``table[key]``, or of each table if it is a list of them."""
+        target = table.get(key, {})
+        if isinstance(target, dict):
+            tables, paths = [target], [key]
+        elif _is_tables(target):
+            tables, paths = target, [f"{key}[{i}]" for i in range(len(target))]
+        else:
+            return  # not a table: the run-configuration loader says so
+        copies = []
+        for path, t in zip(paths, tables):
+            if field_name in t:
+                raise both(f"{path}.{field_name}", alias)
+            copies.append({**t, field_name: value})
+            names[f"{path}.{field_name}"] = alias
+        table[key] = copies[0] if isinstance(target, dict) else copies
+
+    move("shapes", "shape")
+    move("environments", "environment")
+    seeds = table.get("seeds")
+    if isinstance(seeds, int) and not isinstance(seeds, bool):  # a number of seeds: 0..n-1
+        if seeds < 1:
+            raise ConfigError(src, f"{prefix}seeds", "a number of seeds >= 1 (seeds 0..n-1) or a list of seeds", seeds)
+        table["seeds"] = list(range(seeds))
+    move("seeds", "seed")
+    learner_params = table.pop("learner_params", {})
+    if not isinstance(learner_params, dict):
+        raise ConfigError(src, f"{prefix}learner_params", "a table of LearnerParams fields", learner_params)
+    learners = {"name": table.pop("learners")} if "learners" in table else {}
+    for key, value in {**learners, **learner_params}.items():
+        insert("learner", key, value, "learners" if learners and key == "name" else f"learner_params.{key}")
+    if "noise" in table:
+        insert("environment", "noise", table.pop("noise"), "noise")
+    if "physics" in table and not isinstance(table["physics"], dict) and not _is_tables(table["physics"]):
+        table["physics"] = {"preset": table["physics"]}
+        names["physics.preset"] = "physics"
+    return table, names
+
+
+def _merge(base: Any, over: Any) -> Any:
+    """``over`` where it has a value, else ``base``: tables key by key, a table into each table of a list of them
+    (defaults for every environment of an experiment); any other value replaces."""
+    if isinstance(base, dict) and isinstance(over, dict):
+        return {**base, **{k: _merge(base[k], v) if k in base else v for k, v in over.items()}}
+    if isinstance(base, dict) and _is_tables(over):
+        return [_merge(base, o) for o in over]
+    if _is_tables(base) and isinstance(over, dict):
+        return [_merge(b, over) for b in base]
+    return over
+
+
+def _alternatives(value: Any, src: str, path: str, where: str) -> list[tuple[Any, dict[str, str]]]:
+    """Every value ``value`` stands for: a table every combination of its fields' values, a list of tables each of
+    its tables' values in turn, a list of plain values each of them, anything else itself. Each comes with where its
+    tables came from: ``path`` is the key in one combination, ``where`` the key as written (``environment`` and
+    ``environment[1]``)."""
+    if isinstance(value, dict):
+        keys = list(value)
+        options = [_alternatives(value[k], src, _join(path, k), _join(where, k)) for k in keys]
+        return [({k: v for k, (v, _) in zip(keys, combo)}, {p: w for _, found in combo for p, w in found.items()})
+                for combo in itertools.product(*options)]
+    if _is_tables(value):
+        _distinct(value, src, where)
+        return [(v, {path: f"{where}[{i}]", **found}) for i, table in enumerate(value)
+                for v, found in _alternatives(table, src, path, f"{where}[{i}]")]
+    return [(v, {}) for v in _values(value, src, where)]
+
+
+def _expand_experiment(table: dict, names: dict[str, str], name: str, description: str, runs: dict[str, RunSpec],
+                       ctx: _Context) -> Experiment:
+    """Each combination of the axes through the run-configuration loader, then once per seed."""
     src = ctx.source
     where = f"experiment[{name}]"
-    _check_keys(table, EXPERIMENT_KEYS, src, f"{where}.")
-    description = _string(table.get("description", ""), src, f"{where}.description")
-    if "shapes" not in table:
-        raise ConfigError(src, f"{where}.shapes", "a list of morphology files (relative to the suite file)")
-    shapes = [ctx.shape(v, f"{where}.shapes") for v in _values(table["shapes"], src, f"{where}.shapes")]
-    learners = _values(table.get("learners", ["thermal"]), src, f"{where}.learners")
-    for learner in learners:
-        _learner(learner, src, f"{where}.learners")
-    learner_params = _swept_params(P.LearnerParams, table.get("learner_params", {}), src, f"{where}.learner_params",
-                                   exclude=())
-    sensor_table = table.get("sensor", {})
-    if isinstance(sensor_table, dict):
-        # Suites score the true velocity and run thousands of learning runs: they measure with the ideal sensor
-        # (10% cheaper than the optical one) unless told otherwise.
-        sensor_table = {"kind": "ideal", **sensor_table}
-    sensors = _swept_params(P.SensorParams, sensor_table, src, f"{where}.sensor", exclude=("noise",))
-    noises = [P.check(P.EnvironmentParams, "noise", v, src, f"{where}.noise")
-              for v in _values(table.get("noise", [0.0]), src, f"{where}.noise")]
-    steps = [P.check_rule(P.STEPS, "", v, src, f"{where}.steps")
-             for v in _values(table.get("steps", [100]), src, f"{where}.steps")]
-    physics = [P.check_rule(P.PHYSICS_PRESET, "", v, src, f"{where}.physics")
-               for v in _values(table.get("physics", ["default"]), src, f"{where}.physics")]
-    seeds = _seeds(table.get("seeds", [0]), src, f"{where}.seeds")
-    environments = _environments(table.get("environments", [{}]), "noise" in table, src, f"{where}.environments")
-    events = {id(shape): _events(table.get("events", []), shape, steps, src, f"{where}.events") for shape in shapes}
-    summary = events_summary(events[id(shapes[0])])
+    table = dict(table)
+    events = table.pop("events")
+    try:
+        seeds = [P.check_rule(P.SEED, "", s, src, "seed") for s in _values(table.pop("seed", 0), src, "seed")]
+        combinations = _alternatives({k: table[k] for k in AXIS_ORDER if k in table}, src, "", "")
+    except ConfigError as exc:
+        raise _named(exc, where, names) from None
 
     run_ids: list[str] = []
     condition_ids: list[str] = []
     conditions: list[dict] = []
-    for shape, learner, lp, sensor, (label, environment, own_noise), noise, n_steps, preset in itertools.product(
-            shapes, learners, learner_params, sensors, environments, noises, steps, physics):
-        noise = environment.noise if own_noise else noise
-        environment = dataclasses.replace(environment, noise=noise)
+    grounds: dict[str, str] = {}  # environment label -> environment id
+    labels: dict[str, str] = {}  # environment content -> label
+    for combo, found in combinations:
+        environment = combo.get("environment", {})
+        label = None
+        if isinstance(environment, dict):  # its name labels it in the results; it is no EnvironmentParams field
+            environment = dict(environment)
+            label = environment.pop("name", None)
+        env_key = f"{where}.{_rename(_rename('environment', found), names)}"
+        try:
+            if label is not None:
+                _name(label, src, "environment.name")
+            config = run_config_from_table({**combo, "environment": environment, "events": events}, src, ctx.base,
+                                           load=ctx.load)
+            for index, event in enumerate(config.events):
+                if event.step > config.steps:
+                    raise ConfigError(src, f"events[{index}].step", f"a learning step <= the experiment's steps "
+                                                                     f"({config.steps}): a later event never happens",
+                                      event.step)
+        except ConfigError as exc:
+            if exc.source != src:  # a morphology file's own error
+                raise
+            if exc.key.startswith("events") and exc.key.endswith((".unit", ".link")):
+                exc = ConfigError(src, exc.key, f"{exc.expected} (shape {ctx.load(ctx.base / combo['shape']).name})",
+                                  exc.got)
+            raise _named(exc, where, found, names) from None
+        label = label or _settings_label({k: v for k, v in environment.items() if k != "noise"})
+        ground = environment_id(config.environment)
+        if grounds.setdefault(label, ground) != ground:
+            raise ConfigError(src, f"{env_key}.name", "a label no other environment of the experiment has (give each "
+                                                      "a distinct name)", label)
+        content = json.dumps(dataclasses.asdict(config.environment), sort_keys=True)
+        if labels.setdefault(content, label) != label:
+            raise ConfigError(src, env_key, "distinct environments (this one repeats another)", combo["environment"])
+        physics = dict(combo.get("physics", {}))
+        preset = physics.pop("preset", "default")
+        condition = _condition_columns(config, ", ".join([preset, _settings_label(physics)]) if physics else preset)
+        condition.update(environment=label, environment_id=ground, events=events_summary(config.events))
+        identity = config_identity(config, preset)
+        del identity["seed"]
+        condition_id = stable_hash(identity)
+        lp = config.learner_params
+        cycles = lp.warmup_cycles + (config.steps + 1) * (lp.cycles_per_step + lp.discard_cycles)
         for seed in seeds:
-            config = RunConfig(shape=shape, learner=learner, learner_params=lp, sensor=sensor,
-                               environment=environment, events=events[id(shape)],
-                               physics=P.PHYSICS_PRESETS[preset], steps=n_steps, seed=seed)
-            identity = config_identity(config, noise, preset)
-            run_id = stable_hash(identity)
-            del identity["seed"]
-            condition_id = stable_hash(identity)
-            condition = _condition_columns(shape, learner, lp, sensor, noise, preset, n_steps)
-            condition.update(environment=label, environment_id=environment_id(environment), events=summary)
+            run_id = stable_hash({**identity, "seed": seed})
             if run_id not in runs:
-                cycles = lp.warmup_cycles + (n_steps + 1) * (lp.cycles_per_step + lp.discard_cycles)
-                runs[run_id] = RunSpec(run_id, condition_id, condition, seed, config, cost=cycles * body_cost(shape))
+                runs[run_id] = RunSpec(run_id, condition_id, condition, seed, dataclasses.replace(config, seed=seed),
+                                       cost=cycles * body_cost(config.shape))
             if run_id not in run_ids:
                 run_ids.append(run_id)
         if condition_id not in condition_ids:
@@ -344,111 +450,39 @@ def _expand_experiment(table: dict, name: str, runs: dict[str, RunSpec], ctx: _C
     return Experiment(name, description, tuple(run_ids), tuple(condition_ids), varying)
 
 
-def config_identity(config: RunConfig, noise: float, preset: str) -> dict:
-    """Everything that determines a run's records, JSON-ready, the shape by content (what its id hashes)."""
-    data: dict[str, Any] = {}
-    for f in dataclasses.fields(config):
-        value = getattr(config, f.name)
-        if isinstance(value, Shape):
-            value = shape_identity(value)
-        elif dataclasses.is_dataclass(value):
-            value = dataclasses.asdict(value)
-        elif f.name == "events":  # as RunConfig.to_dict writes them: each event's own fields
-            value = [{k: v for k, v in dataclasses.asdict(e).items() if v is not None} for e in value]
-        data[f.name] = value
-    data["noise"] = noise
-    data["physics_preset"] = preset
-    return data
-
-
-def environment_id(environment: P.EnvironmentParams) -> str:
-    """A hash of the ground a run or scan moves on (the environment without measurement noise, which changes what
-    learners measure, not the landscape): a scan's best Ubar is compared with the runs in the same environment."""
-    data = dataclasses.asdict(environment)
-    data.pop("noise", None)
-    return stable_hash(data)
-
-
 def events_summary(events: tuple[Event, ...]) -> str:
     """One text for a condition column: ``step 150 damage unit=2 mode=no-inflate; step 300 noise sigma=0.5``."""
     return "; ".join(f"step {e.step} {e.describe()}" for e in events) or "none"
 
 
-def _environments(value: Any, noise_axis: bool, src: str, key: str) -> list[tuple[str, P.EnvironmentParams, bool]]:
-    """(label, EnvironmentParams, whether it sets its own noise) for each table of an experiment's environments."""
-    if isinstance(value, dict):
-        value = [value]
-    if not isinstance(value, list) or not value or not all(isinstance(v, dict) for v in value):
-        raise ConfigError(src, key, "a non-empty list of environment tables ([{...}, ...] or "
-                                    "[[experiment.environments]])", value)
-    result, labels, seen = [], set(), set()
-    for index, raw in enumerate(value):
-        where = f"{key}[{index}]"
-        table = dict(raw)
-        name = table.pop("name", None)
-        if name is not None:
-            name = _name(name, src, f"{where}.name")
-        if "noise" in table and noise_axis:
-            raise ConfigError(src, f"{where}.noise", "no noise here when the experiment has a 'noise' axis: give "
-                                                     "measurement noise in one place or the other", table["noise"])
-        environment = params_from_table(P.EnvironmentParams, table, src, where)
-        label = name or _environment_label(table)
-        if label in labels:
-            raise ConfigError(src, f"{where}.name", "a label no other environment of the experiment has (give each "
-                                                    "a distinct name)", label)
-        content = json.dumps(dataclasses.asdict(environment), sort_keys=True)
-        if content in seen:
-            raise ConfigError(src, where, "distinct environments (this one repeats another)", raw)
-        labels.add(label)
-        seen.add(content)
-        result.append((label, environment, "noise" in table))
-    return result
-
-
-def _environment_label(table: dict, prefix: str = "") -> str:
-    """``friction_scale=1.5, friction_field.amplitude=0.3``: the settings of an environment table, or ``default``."""
+def _settings_label(table: dict, prefix: str = "") -> str:
+    """``friction_scale=1.5, friction_field.amplitude=0.3``: the settings of a table, or ``default``."""
     parts = []
     for key, value in table.items():
         if isinstance(value, dict):
-            inner = _environment_label(value, f"{prefix}{key}.")
+            inner = _settings_label(value, f"{prefix}{key}.")
             parts += [inner] if inner != "default" else []
         else:
             parts.append(f"{prefix}{key}={value}")
     return ", ".join(parts) or "default"
 
 
-def _events(items: Any, shape: Shape, steps: list[int], src: str, key: str) -> tuple[Event, ...]:
-    """An experiment's events, validated against one of its shapes and its numbers of steps."""
-    try:
-        events = parse_events(items, src, shape.n_units, len(shape.links))
-    except ConfigError as exc:
-        # parse_events names keys as a run configuration has them (events[0].unit): put them under the experiment
-        sub = exc.key[len("events"):] if exc.key.startswith("events") else f".{exc.key}"
-        expected = exc.expected + (f" (shape {shape.name})" if sub.endswith((".unit", ".link")) else "")
-        raise ConfigError(src, f"{key}{sub}", expected, exc.got) from None
-    for index, item in enumerate(items):
-        if item["step"] > min(steps):
-            raise ConfigError(src, f"{key}[{index}].step", f"a learning step <= the experiment's steps "
-                                                          f"({min(steps)}): a later event never happens",
-                              item["step"])
-    return events
-
-
-def _condition_columns(shape: Shape, learner: str, lp, sensor, noise: float, preset: str, steps: int) -> dict:
+def _condition_columns(config: RunConfig, physics: str) -> dict:
+    shape, sensor = config.shape, config.sensor
     columns: dict[str, Any] = {"shape": shape.name, "shape_id": shape_id(shape), "n_units": shape.n_units,
-                               "learner": learner}
-    columns.update(dataclasses.asdict(lp))
+                               "learner": config.learner}
+    columns.update(dataclasses.asdict(config.learner_params))
     columns["sensor"] = sensor.kind
     for f in dataclasses.fields(sensor):
         value = getattr(sensor, f.name)
-        if f.name in ("kind", "noise"):
+        if f.name == "kind":
             continue
         if dataclasses.is_dataclass(value):  # a sensor's own parameters (sensor.optical): only for that sensor
             if f.name == sensor.kind:
                 columns.update({f"sensor_{f.name}_{k}": v for k, v in dataclasses.asdict(value).items()})
         else:
             columns[f"sensor_{f.name}"] = value
-    columns.update(noise=noise, physics=preset, steps=steps)
+    columns.update(noise=config.environment.noise, physics=physics, steps=config.steps)
     return columns
 
 
@@ -489,7 +523,7 @@ def _expand_scan(table: dict, index: int, ctx: _Context) -> ScanSpec:
     scan_id = stable_hash(identity)
     columns = {"scan": name, "shape": shape.name, "shape_id": shape_id(shape), "n_units": shape.n_units,
                "resolution": resolution, "samples": len(phases), "cycles": cycles, "discard": discard, "seed": seed,
-               "physics": preset, "environment": _environment_label(environment_table),
+               "physics": preset, "environment": _settings_label(environment_table),
                "environment_id": environment_id(environment)}
     return ScanSpec(scan_id, name, shape, columns, P.PHYSICS_PRESETS[preset], cycles, discard, phases, environment)
 
@@ -499,8 +533,6 @@ def _expand_scan(table: dict, index: int, ctx: _Context) -> ScanSpec:
 
 def _check_keys(table: dict, allowed, source: str, prefix: str) -> None:
     for key in table:
-        if key in FUTURE_KEYS and key not in allowed:
-            raise ConfigError(source, f"{prefix}{key}", f"no such key here: {FUTURE_KEYS[key]}")
         if key not in allowed:
             raise ConfigError(source, f"{prefix}{key}", f"one of the known keys {', '.join(sorted(allowed))}")
 
@@ -514,6 +546,10 @@ def _array_of_tables(table: dict, key: str, source: str) -> list[dict]:
     return value
 
 
+def _is_tables(value: Any) -> bool:
+    return isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value)
+
+
 def _values(value: Any, source: str, key: str) -> list:
     """A scalar or a non-empty list of distinct scalars, as a list."""
     values = value if isinstance(value, list) else [value]
@@ -522,39 +558,33 @@ def _values(value: Any, source: str, key: str) -> list:
     for v in values:
         if isinstance(v, (list, dict)):
             raise ConfigError(source, key, "a value or a list of plain values (no nested lists or tables)", value)
-    if len({json.dumps(v) for v in values}) != len(values):
-        raise ConfigError(source, key, "distinct values (a value is repeated)", value)
+    return _distinct(values, source, key)
+
+
+def _distinct(values: list, source: str, key: str) -> list:
+    if len({json.dumps(v, sort_keys=True) for v in values}) != len(values):
+        raise ConfigError(source, key, "distinct values (a value is repeated)", values)
     return values
 
 
-def _swept_params(cls: type, table: Any, source: str, key: str, exclude: tuple[str, ...]) -> list:
-    """Every combination of a parameter table whose fields may hold lists, each validated as ``cls``."""
-    if not isinstance(table, dict):
-        raise ConfigError(source, key, f"a table of {cls.__name__} fields (a list of values sweeps a field)", table)
-    for name in exclude:
-        if name in table:
-            raise ConfigError(source, f"{key}.{name}", f"no {name} here: give it as the experiment's own '{name}' key")
-    names = list(table)
-    # a sub-table (e.g. sensor.optical) is one value, read by params_from_table; any other value may be a list
-    swept = [[table[n]] if isinstance(table[n], dict) else _values(table[n], source, f"{key}.{n}") for n in names]
-    return [params_from_table(cls, dict(zip(names, combo)), source, key) for combo in itertools.product(*swept)]
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
 
 
-def _learner(spec: Any, source: str, key: str) -> None:
-    try:
-        load_learner_class(spec)
-    except ConfigError as exc:
-        raise ConfigError(source, key, exc.expected, spec) from None
+def _rename(key: str, names: dict[str, str]) -> str:
+    """``key`` with its longest prefix that ``names`` knows (a whole key, up to a '.' or a '[') renamed."""
+    for end in range(len(key), 0, -1):
+        if key[:end] in names and (end == len(key) or key[end] in ".["):
+            return names[key[:end]] + key[end:]
+    return key
 
 
-def _seeds(value: Any, source: str, key: str) -> list[int]:
-    if isinstance(value, int) and not isinstance(value, bool):
-        if value < 1:
-            raise ConfigError(source, key, "a number of seeds >= 1 (seeds 0..n-1) or a list of distinct seeds", value)
-        return list(range(value))
-    if isinstance(value, list):
-        return [P.check_rule(P.SEED, "", v, source, key) for v in _values(value, source, key)]
-    raise ConfigError(source, key, "a number of seeds >= 1 (seeds 0..n-1) or a list of distinct seeds", value)
+def _named(exc: ConfigError, where: str, *names: dict[str, str]) -> ConfigError:
+    """An error of the run-configuration loader or of an axis, its key as the suite file writes it."""
+    key = exc.key
+    for known in names:
+        key = _rename(key, known)
+    return ConfigError(exc.source, f"{where}.{key}", exc.expected, exc.got)
 
 
 def _string(value: Any, source: str, key: str) -> str:

@@ -28,14 +28,15 @@
     mode = "no-inflate"
 
 ``morphbench run FILE`` takes a run configuration or a bare morphology file (then everything else is default);
-command-line options override the file.
+command-line options override the file. A suite experiment (morphbench.bench.suite) is a run configuration whose
+values may be lists; each combination is read by ``run_config_from_table``.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from morphbench.errors import ConfigError
 from morphbench.experiment.events import parse_events
@@ -52,7 +53,7 @@ from morphbench.params import (
     SensorParams,
     check_rule,
 )
-from morphbench.shapes import load_shape, params_from_table, read_toml, shape_from_table
+from morphbench.shapes import Shape, load_shape, params_from_table, read_toml, shape_from_table
 
 RUN_KEYS = {"description", "shape", "steps", "seed", "learner", "sensor", "environment", "physics", "events"}
 
@@ -66,20 +67,28 @@ def load_run_config(path: str | Path) -> RunConfig:
     return run_config_from_table(table, str(path), base=path.parent)
 
 
-def run_config_from_table(table: dict[str, Any], source: str, base: Path) -> RunConfig:
-    """Validate a run configuration table; ``base`` is where relative shape paths start."""
+def run_config_from_table(table: dict[str, Any], source: str, base: Path,
+                          load: Callable[[Path], Shape] = load_shape) -> RunConfig:
+    """Validate a run configuration table; ``base`` is where relative shape paths start. ``load`` reads a morphology
+    file (a suite passes one that reads each file once)."""
     for key in table:
         if key not in RUN_KEYS:
             raise ConfigError(source, key, f"one of the keys of a run configuration: {', '.join(sorted(RUN_KEYS))}")
     if not isinstance(table.get("shape"), str):
         raise ConfigError(source, "shape", "the path of a morphology file (a string, relative to this file)",
                           table.get("shape", ...))
-    shape = load_shape(base / table["shape"])
+    path = base / table["shape"]
+    if not path.is_file():
+        raise ConfigError(source, "shape", f"an existing morphology file (there is no file {path})", table["shape"])
+    shape = load(path)
     learner_table = dict(_table(table, "learner", source))
     learner = learner_table.pop("name", "thermal")
     if not isinstance(learner, str):
         raise ConfigError(source, "learner.name", "thermal, flaky, random or package.module:Class", learner)
-    load_learner_class(learner)
+    try:
+        load_learner_class(learner)
+    except ConfigError as exc:  # it names the spec as if given by --learner: name this file's key instead
+        raise ConfigError(source, "learner.name", exc.expected, learner) from None
     return RunConfig(
         shape=shape,
         learner=learner,

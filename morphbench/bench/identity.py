@@ -1,0 +1,61 @@
+"""The ids of runs, conditions, shapes and grounds: hashes of plain data, so that the same thing has the same id on
+every machine and in every results directory. Pure functions with no imports beyond the standard library and
+``params``: the metrics and the report use them without loading the run loop or the simulator."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from typing import Any
+
+from morphbench.params import EnvironmentParams
+
+
+def stable_hash(data: Any, length: int = 12) -> str:
+    """A short hex digest of canonical JSON: the same data gives the same id on every machine and run."""
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=True, default=_plain)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:length]
+
+
+def _plain(value: Any) -> Any:
+    """numpy values as plain Python ones, for hashing."""
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    raise TypeError(f"cannot hash a {type(value).__name__} in a run configuration")
+
+
+def shape_identity(shape) -> dict:
+    """What a shape is physically (its bodies, links and actuator) and its name, not where it was loaded from."""
+    data = dataclasses.asdict(shape)
+    data.pop("source", None)
+    data.pop("description", None)
+    return data
+
+
+def shape_id(shape) -> str:
+    return stable_hash(shape_identity(shape))
+
+
+def config_identity(config, preset: str) -> dict:
+    """Everything that determines a run's records (a RunConfig), JSON-ready, the shape by content (what its id
+    hashes). ``noise`` and ``physics_preset`` are there because the first suites hashed them: existing results keep
+    their ids."""
+    data = {}
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        data[f.name] = dataclasses.asdict(value) if dataclasses.is_dataclass(value) else value
+    data["shape"] = shape_identity(config.shape)
+    data["events"] = [dataclasses.asdict(e) for e in config.events]  # each its kind, step and own fields
+    data["noise"] = config.environment.noise
+    data["physics_preset"] = preset
+    return data
+
+
+def environment_id(environment: EnvironmentParams) -> str:
+    """A hash of the ground a run or scan moves on (the environment without measurement noise, which changes what
+    learners measure, not the landscape): a scan's best Ubar is compared with the runs in the same environment."""
+    data = dataclasses.asdict(environment)
+    data.pop("noise", None)
+    return stable_hash(data)
+
