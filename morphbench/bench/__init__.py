@@ -1,6 +1,7 @@
 """Benchmark suites: matrices of learning runs and landscape scans, run in parallel, stored as Parquet, reported.
 
     suite.py      the suite file format (TOML) and its expansion into runs and scan parts with stable ids
+    identity.py   the stable ids of shapes, environments and runs (pure: no simulator)
     jobs.py       what a worker does with one job (never raises: a failure is a result)
     executors.py  a local process pool (default) or a Dask distributed cluster
     store.py      the results directory: one atomically written directory per job, consolidated tables
