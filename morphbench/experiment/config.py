@@ -50,6 +50,7 @@ from morphbench.params import (
     LearnerParams,
     PhysicsParams,
     SensorParams,
+    TEXT,
     check_rule,
 )
 from morphbench.shapes import load_shape, params_from_table, read_toml, shape_from_table
@@ -74,6 +75,7 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path) -> Run
     if not isinstance(table.get("shape"), str):
         raise ConfigError(source, "shape", "the path of a morphology file (a string, relative to this file)",
                           table.get("shape", ...))
+    check_rule(TEXT, "", table.get("description", ""), source, "description")
     shape = load_shape(base / table["shape"])
     learner_table = dict(_table(table, "learner", source))
     learner = learner_table.pop("name", "thermal")
