@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 EXIT_FAILED_RUNS = 1
@@ -79,7 +80,11 @@ def cmd_bench(args) -> int:
 
 def cmd_report(args) -> int:
     from morphbench.bench.report import build_report
+    from morphbench.errors import ConfigError
 
+    if not os.path.isdir(args.dir):
+        raise ConfigError("report", args.dir, "a results directory written by 'morphbench bench'"
+                                              + (" (this is a file)" if os.path.exists(args.dir) else ""))
     path = build_report(args.dir)
     print(f"report in {path}")
     return 0
