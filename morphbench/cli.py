@@ -254,7 +254,7 @@ def _cmd_scan(args) -> int:
     with tqdm(total=n_points, desc=f"scan {shape.name}", unit="point", disable=args.quiet) as bar:
         table = scan(shape, args.resolution, physics=PHYSICS_PRESETS[args.physics],
                      cycles=args.cycles or DEFAULT_CYCLES, samples=args.samples, seed=args.seed,
-                     workers=args.workers, progress=bar.update)
+                     workers=min(args.workers, n_points, os.cpu_count() or 1), progress=bar.update)
     table.to_csv(out / "scan.csv", index=False, float_format="%.6g")
     plots.scan_figure(table, out / "scan.png", title=f"{shape.name}: Ubar at fixed phases")
     best = table.loc[table.ubar.idxmax()]

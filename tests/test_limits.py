@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -122,3 +123,46 @@ def test_the_api_applies_the_same_rules():
         RunConfig(shape=chain(2), steps=10**7)
     fine = RunConfig(shape=chain(2, actuator={"cycle_time": 0.2}))  # 32 ticks in the pump phase at the default step
     assert fine.shape.actuator.cycle_time == 0.2
+
+
+def test_a_nul_byte_in_a_shape_path(tmp_path, capsys):
+    path = tmp_path / "run.toml"
+    path.write_text('shape = "chain\\u0000.toml"\n', encoding="utf-8")
+    error = _one_line_error(capsys, "run", str(path), "--quiet", "--out", str(tmp_path / "out"))
+    assert error.endswith(": (file): expected a path without a NUL byte"), error
+
+
+@pytest.mark.parametrize("name", ["a\0b", "x" * 300])
+def test_an_out_name_the_file_system_cannot_take(tmp_path, capsys, name):
+    error = _one_line_error(capsys, "run", CHAIN2, "--quiet", "--out", str(tmp_path / name))
+    assert error.startswith("morphbench: error: --out: ") and "expected a path" in error
+
+
+def test_report_on_a_file(tmp_path, capsys):
+    path = tmp_path / "summary.json"
+    path.write_text("{}")
+    error = _one_line_error(capsys, "report", str(path))
+    assert error == f"morphbench: error: report: {path}: expected a results directory written by 'morphbench bench' " \
+                    "(this is a file)"
+
+
+@pytest.mark.parametrize("nested", ["[" * 5000 + "]" * 5000, "{a = " * 5000 + "1" + "}" * 5000])
+def test_deeply_nested_toml(tmp_path, capsys, nested):
+    path = _shape_file(tmp_path, "")
+    path.write_text(f"description = {nested}\n", encoding="utf-8")
+    error = _one_line_error(capsys, "shapes", "check", str(path))
+    assert error == f"morphbench: error: {path}: (syntax): expected TOML nested less deeply (arrays or inline tables " \
+                    "thousands deep)"
+
+
+def test_an_error_after_the_simulator_is_imported_is_one_line_in_all(tmp_path):
+    """In a fresh process, where ``import pybullet`` prints its build time unless morphbench silences it."""
+    result = subprocess.run(
+        [sys.executable, "-m", "morphbench.cli", "run", CHAIN2, "--steps", "3", "--physics", "fast", "--quiet",
+         "--out", str(tmp_path / "out"), "--video", str(tmp_path / "v.gif"), "--video-steps", "9:"],
+        env={**os.environ, "PYTHONPATH": str(ROOT)}, cwd=ROOT, capture_output=True, text=True,
+        timeout=120)
+    assert result.returncode == EXIT_BAD_INPUT
+    assert result.stdout == ""
+    assert result.stderr == ("morphbench: error: --video-steps: steps: expected learning steps of this run, which "
+                             "ends at step 3, got '9:'\n")
