@@ -298,8 +298,9 @@ class ActuatorParams:
     curve's peak at +4.7 mm/cycle, the paper's 4.5 (docs/fidelity.md)."""
     rest_gap: float = param(0.010, between(1e-4, 0.1), "m")
     """m, gap between the two units' faces when the bellows is empty."""
-    stiffness: float = param(300.0, between(1e-3, 1e5), "N/m")
-    """N/m, axial stiffness of the bellows."""
+    stiffness: float = param(300.0, between(1e-3, 1e10), "N/m")
+    """N/m, axial stiffness of the bellows (up to 1e10: the quasi-static model takes a rigid link; PyBullet's
+    explicit springs need a finer timestep above a few hundred)."""
     damping: float = param(2.0, between(1e-6, 1e3), "N s/m")
     """N s/m, axial damping of the bellows."""
     max_force: float = param(5.0, between(1e-3, 1e3), "N")
