@@ -6,7 +6,10 @@ Bad input exits with status 2 and one line naming the file or option, the key an
 from __future__ import annotations
 
 import argparse
+import functools
+import os
 import sys
+import warnings
 from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
@@ -14,6 +17,7 @@ from pathlib import Path
 from morphbench import __version__
 from morphbench.bench.cli import add_bench_commands
 from morphbench.errors import ConfigError, PhysicsError
+from morphbench.files import check_path
 from morphbench.params import (COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, SENSOR_KINDS, STEPS, EnvironmentParams,
                                LearnerParams, SensorParams, field_option, option_type)
 from morphbench.render.options import add_render_arguments, video_params_from_args
@@ -21,6 +25,12 @@ from morphbench.shapes.cli import add_shapes_commands
 from morphbench.shapes.loader import resolve_shape_path
 
 EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+RUN_FILES = {"units.parquet", "steps.parquet", "pieces.parquet", "summary.json", "learning_curve.png",
+             "trajectory.png"}
+"""what a run directory holds: all that ``run --overwrite`` may replace."""
+TEMPORARY_NAME_ROOM = 32
+"""characters a temporary name beside a file or directory adds to its name ('.NAME.tmp-PID')."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -55,17 +65,18 @@ def _parser() -> argparse.ArgumentParser:
                      help="Gaussian measurement noise, mm/cycle (default 0)")
     _add_physics(run, default=None)
     run.add_argument("--out", help="output directory (default runs/NAME-LEARNER-seedS)")
-    run.add_argument("--overwrite", action="store_true", help="replace the records of an earlier run in --out")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace an earlier run in --out (a directory holding only a run's files), whole")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     add_render_arguments(run)
-    run.set_defaults(func=_cmd_run)
+    run.set_defaults(func=_warnings_unless_failed(_cmd_run))
 
     render = sub.add_parser("render", help="replay a finished run from its records and render it to a video")
     render.add_argument("run_dir", metavar="RUN_DIR", help="a directory written by morphbench run")
     render.add_argument("--out", required=True, help="the video to write (.mp4 or .gif)")
     render.add_argument("--quiet", action="store_true")
     add_render_arguments(render, output=False)
-    render.set_defaults(func=_cmd_render)
+    render.set_defaults(func=_warnings_unless_failed(_cmd_render))
 
     scan = sub.add_parser("scan", help="Ubar at fixed phases over all phase differences (no learning)")
     scan.add_argument("shape")
@@ -76,15 +87,31 @@ def _parser() -> argparse.ArgumentParser:
     scan.add_argument("--cycles", type=option_type(COUNT), default=None,
                       help="cycles measured per point")
     scan.add_argument("--seed", type=option_type(SEED), default=0)
-    scan.add_argument("--workers", type=option_type(COUNT), default=1)
+    scan.add_argument("--workers", type=option_type(COUNT), default=1,
+                      help="worker processes (default 1; at most the number of points and of CPUs are used)")
     _add_physics(scan, default="default")
-    scan.set_defaults(func=_cmd_scan)
+    scan.set_defaults(func=_warnings_unless_failed(_cmd_scan))
     add_shapes_commands(sub)
     add_bench_commands(sub)
     scan.add_argument("--out", help="output directory (default runs/scan-SHAPE)")
     scan.add_argument("--overwrite", action="store_true", help="replace an earlier scan in --out")
     scan.add_argument("--quiet", action="store_true")
     return parser
+
+
+def _warnings_unless_failed(command):
+    """``command`` with its warnings (numpy's RuntimeWarnings, say) shown after it succeeds and dropped if it fails:
+    an error is one line."""
+
+    @functools.wraps(command)
+    def quiet(args) -> int:
+        with warnings.catch_warnings(record=True) as caught:
+            code = command(args)
+        for w in caught:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+        return code
+
+    return quiet
 
 
 def _add_physics(parser: argparse.ArgumentParser, default: str | None) -> None:
@@ -94,9 +121,35 @@ def _add_physics(parser: argparse.ArgumentParser, default: str | None) -> None:
                              "on the ground)")
 
 
+def _run_dir(out: str, overwrite: bool) -> Path:
+    """The run directory, checked before anything is simulated: a new or empty directory, or with ``overwrite`` one
+    that holds only an earlier run's files (it is replaced whole), where the file system lets it be written."""
+    path = check_path(out, "--out", room=TEMPORARY_NAME_ROOM)
+    if path.exists() and not path.is_dir():
+        raise ConfigError("--out", out, "a directory (this is a file)")
+    if path.is_dir():
+        entries = set(os.listdir(path))
+        if "summary.json" in entries and not overwrite:
+            raise ConfigError("--out", out, "a new directory: it already holds summary.json (pass --overwrite to "
+                                            "replace it)")
+        if entries and not overwrite:
+            raise ConfigError("--out", out, f"a new or empty directory (it holds {sorted(entries)[0]})")
+        if entries - RUN_FILES:
+            raise ConfigError("--out", out, f"a directory holding only a run's files, to be replaced whole (it also "
+                                            f"holds {sorted(entries - RUN_FILES)[0]})")
+        if os.path.ismount(path):
+            raise ConfigError("--out", out, "a directory that can be replaced (this is a mount point)")
+    ancestor = Path(os.path.abspath(path)).parent
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if not ancestor.is_dir() or not os.access(ancestor, os.W_OK | os.X_OK):
+        raise ConfigError("--out", out, f"a directory that can be written ({ancestor} is not a writable directory)")
+    return path
+
+
 def _output_dir(out: str, marker: str, overwrite: bool) -> Path:
     """The output directory, refusing to overwrite an earlier result unless asked to."""
-    path = Path(out)
+    path = check_path(out, "--out", room=TEMPORARY_NAME_ROOM)
     if path.exists() and not path.is_dir():
         raise ConfigError("--out", out, "a directory (this is a file)")
     if (path / marker).exists() and not overwrite:
@@ -134,10 +187,16 @@ def _cmd_run(args) -> int:
     load_learner_class(config.learner)  # fail on a bad plug-in before simulating
     name = Path(args.config).stem
     learner_name = config.learner.rsplit(":", 1)[-1].lower()
-    out_arg = args.out or f"runs/{name}-{learner_name}-seed{config.seed}"
-    created = not Path(out_arg).exists()
-    out = _output_dir(out_arg, "summary.json", args.overwrite)
-    video = VideoRecorder(None, args.video, video_params_from_args(args)) if args.video else nullcontext()
+    out = _run_dir(args.out or f"runs/{name}-{learner_name}-seed{config.seed}", args.overwrite)
+    video = (VideoRecorder(None, check_path(args.video, "--video", room=TEMPORARY_NAME_ROOM),
+                           video_params_from_args(args, config.steps))
+             if args.video else nullcontext())
+    title = f"{name}, {learner_name}, seed {config.seed}"
+
+    def figures(directory: Path) -> None:
+        plots.learning_curve(records.steps(), records.units(), directory / "learning_curve.png", title=title)
+        plots.trajectory_figure(records.steps(), directory / "trajectory.png", title=title)
+
     try:
         with video as recorder, tqdm(total=config.steps + 1, desc=f"{name} {learner_name}", unit="step",
                                      disable=args.quiet) as bar:
@@ -148,14 +207,10 @@ def _cmd_run(args) -> int:
                     recorder.progress(step, records)
 
             records = run(config, progress, recorder)
-    except BaseException:
-        if created and not any(out.iterdir()):
-            out.rmdir()  # a run that failed (a plug-in, the physics) leaves no run directory behind
-        raise
-    records.write(out)
-    title = f"{name}, {learner_name}, seed {config.seed}"
-    plots.learning_curve(records.steps(), records.units(), out / "learning_curve.png", title=title)
-    plots.trajectory_figure(records.steps(), out / "trajectory.png", title=title)
+        records.write(out, figures)
+    except KeyboardInterrupt:
+        print(f"morphbench: interrupted; nothing of this run was written to {out}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     summary = records.summary()
     print(f"{name}: final Ubar {summary['final_ubar']:+.2f} mm/cycle (true {summary['final_ubar_true']:+.2f}), "
           f"mean acceptance {summary['mean_acceptance']:.2f}, {summary['wall_time_s']:.1f} s wall time")
@@ -199,7 +254,7 @@ def _cmd_scan(args) -> int:
     with tqdm(total=n_points, desc=f"scan {shape.name}", unit="point", disable=args.quiet) as bar:
         table = scan(shape, args.resolution, physics=PHYSICS_PRESETS[args.physics],
                      cycles=args.cycles or DEFAULT_CYCLES, samples=args.samples, seed=args.seed,
-                     workers=args.workers, progress=bar.update)
+                     workers=min(args.workers, n_points, os.cpu_count() or 1), progress=bar.update)
     table.to_csv(out / "scan.csv", index=False, float_format="%.6g")
     plots.scan_figure(table, out / "scan.png", title=f"{shape.name}: Ubar at fixed phases")
     best = table.loc[table.ubar.idxmax()]

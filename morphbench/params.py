@@ -54,7 +54,7 @@ class Range:
         kind = ("an even integer" if self.even else "an integer") if self.integer else "a number"
         if math.isfinite(self.low) and math.isfinite(self.high):
             left, right = "[" if self.low_inclusive else "(", "]" if self.high_inclusive else ")"
-            return f"{kind} in {left}{self.low:g}, {self.high:g}{right}"
+            return f"{kind} in {left}{_number(self.low)}, {_number(self.high)}{right}"
         takes_inf = (self.low_inclusive and self.low == -math.inf) or (self.high_inclusive and self.high == math.inf)
         if math.isfinite(self.low):
             bound = f" {'>=' if self.low_inclusive else '>'} {self.low:g}"
@@ -71,6 +71,11 @@ class Range:
 
     def parse(self, text: str) -> Any:
         return int(text) if self.integer else float(text)
+
+
+def _number(value: float) -> str:
+    """A bound as a message shows it: whole numbers in full (2**63 - 1, not 9.22337e+18), others with %g."""
+    return str(int(value)) if float(value).is_integer() and abs(value) < 1e16 or isinstance(value, int) else f"{value:g}"
 
 
 @dataclass(frozen=True)
@@ -119,11 +124,11 @@ class StepSpan:
         if not (isinstance(value, (tuple, list)) and len(value) == 2):
             return False
         first, last = value
-        step = Range(0, integer=True)
+        step = STEPS
         return step.accepts(first) and (last is None or (step.accepts(last) and last >= first))
 
     def describe(self) -> str:
-        return "None or (first, last) learning steps with 0 <= first <= last (last None: to the end)"
+        return f"None or (first, last) learning steps with 0 <= first <= last <= {MAX_STEPS} (last None: to the end)"
 
     def normalize(self, value: Any) -> Any:
         return value if value is None else tuple(value)
@@ -131,23 +136,43 @@ class StepSpan:
 
 Rule = Range | Choices | OfType | StepSpan
 
-POSITIVE = Range(0, low_inclusive=False)
-"""a finite number > 0."""
-NON_NEGATIVE = Range(0)
-"""a finite number >= 0."""
-FINITE = Range(low_inclusive=False)
-"""any finite number."""
-COUNT = Range(1, integer=True)
-"""an integer >= 1."""
-NATURAL = Range(0, integer=True)
-"""an integer >= 0 (seeds, cycles that may be none)."""
+def between(low: float, high: float, *, low_inclusive: bool = True, integer: bool = False) -> Range:
+    """[low, high] (or (low, high] if not ``low_inclusive``): every field has both ends, chosen for what the simulator
+    can take and what a robot of these units can be."""
+    return Range(low, high, low_inclusive=low_inclusive, high_inclusive=True, integer=integer)
+
+
+MAX_COUNT = 10_000
+COUNT = between(1, MAX_COUNT, integer=True)
+"""an integer in [1, 10000]: solver iterations, scan points per axis, cycles per scan point. More is hours of
+simulation per tick or point, not a setting."""
+NATURAL = between(0, MAX_COUNT, integer=True)
+"""an integer in [0, 10000] (cycles that may be none)."""
 BOOL = OfType(bool, "true or false")
 TEXT = OfType(str, "a string")
 
-STEPS = NATURAL
-"""learning steps of a run after the initial measurement (RunConfig.steps, a suite's steps, --steps)."""
-SEED = NATURAL
-"""a run's seed (RunConfig.seed, a suite's seeds, --seed)."""
+MAX_STEPS = 1_000_000
+STEPS = between(0, MAX_STEPS, integer=True)
+"""learning steps of a run after the initial measurement (RunConfig.steps, a suite's steps, --steps). At most a
+million: at the default 6 s per step that is 70 days of simulated time, days of wall time for a chain on the
+quasi-static model, and about 100 bytes of records per unit and step held in memory; more is not a run anyone waits
+for."""
+SEED = between(0, 2**63 - 1, integer=True)
+"""a seed (RunConfig.seed, a suite's seeds, --seed, ground, friction field and shuffle seeds): it is stored in int64
+columns (records, suite tables)."""
+MAX_CYCLES_PER_STEP = 1000
+CYCLES = between(1, MAX_CYCLES_PER_STEP, integer=True)
+"""actuation cycles measured per learning step (--cycles-per-step): at most 1000 (over half an hour of simulated time
+per step at the default cycle; the paper measures over 2)."""
+MIN_TICKS_PER_PHASE = 4
+"""physics ticks that the shorter of a cycle's pump and vent phases must span at least: fewer and the pump switches
+within one tick, so the schedule is not resolved (and a phase shorter than a tick is none at all)."""
+MAX_TICKS_PER_ADVANCE = 2_000_000
+"""physics ticks in one stretch of warm-up, discarded or measured cycles at most: the pressures of a stretch are
+computed at once (8 bytes per tick and bellows per array), so 2 million ticks is 16 MB per bellows."""
+MAX_FIELD_WAVES = 1000
+"""friction field period / correlation_length at most: the field holds one wave per ratio unit and evaluates them
+on 2048 points to normalise (1000 waves are 16 MB)."""
 
 
 def param(default: Any, rule: Rule, unit: str = "") -> Any:
@@ -231,15 +256,15 @@ PHYSICS_BACKENDS: tuple[str, ...] = get_args(PhysicsBackend)
 class UnitParams:
     """One active unit: a rigid box sliding on the ground."""
 
-    length: float = param(0.060, POSITIVE, "m")
+    length: float = param(0.060, between(0.001, 1), "m")
     """m, extent along the unit's forward axis (the actuator axis)."""
-    width: float = param(0.040, POSITIVE, "m")
+    width: float = param(0.040, between(0.001, 1), "m")
     """m, extent across the forward axis."""
-    height: float = param(0.030, POSITIVE, "m")
-    """m, vertical extent."""
-    mass: float = param(0.050, POSITIVE, "kg")
+    height: float = param(0.030, between(0.001, 1), "m")
+    """m, vertical extent (every extent from 1 mm to 1 m: smaller bodies have no collision margin in Bullet)."""
+    mass: float = param(0.050, between(0.001, 10), "kg")
     """kg, mass of the whole unit (body, pump, battery)."""
-    friction: float = param(0.5, NON_NEGATIVE)
+    friction: float = param(0.5, between(0, 10))
     """Coulomb friction coefficient against the ground (the ground itself is 1.0; Bullet multiplies the two)."""
 
 
@@ -252,9 +277,9 @@ class DummyParams:
     makes the 2-unit curve antisymmetric and leaves even chains in a friction tie at equal phases.
     """
 
-    mass: float = param(0.050, POSITIVE, "kg")
+    mass: float = param(0.050, between(0.001, 10), "kg")
     """kg."""
-    friction: float = param(0.7, NON_NEGATIVE)
+    friction: float = param(0.7, between(0, 10))
     """Coulomb friction coefficient against the ground."""
 
 
@@ -268,38 +293,40 @@ class ActuatorParams:
     by the stroke, loaded it gives way by force / stiffness. Its force is capped at ``max_force``.
     """
 
-    stroke: float = param(0.0105, POSITIVE, "m")
+    stroke: float = param(0.0105, between(1e-4, 0.1), "m")
     """m, extension at full pressure with no load. It scales the gait: 10.5 mm puts the quasi-static 2-unit
     curve's peak at +4.7 mm/cycle, the paper's 4.5 (docs/fidelity.md)."""
-    rest_gap: float = param(0.010, POSITIVE, "m")
+    rest_gap: float = param(0.010, between(1e-4, 0.1), "m")
     """m, gap between the two units' faces when the bellows is empty."""
-    stiffness: float = param(300.0, POSITIVE, "N/m")
-    """N/m, axial stiffness of the bellows."""
-    damping: float = param(2.0, POSITIVE, "N s/m")
+    stiffness: float = param(300.0, between(1e-3, 1e10), "N/m")
+    """N/m, axial stiffness of the bellows (up to 1e10: the quasi-static model takes a rigid link; PyBullet's
+    explicit springs need a finer timestep above a few hundred)."""
+    damping: float = param(2.0, between(1e-6, 1e3), "N s/m")
     """N s/m, axial damping of the bellows."""
-    max_force: float = param(5.0, POSITIVE, "N")
+    max_force: float = param(5.0, between(1e-3, 1e3), "N")
     """N, the largest force the bellows exerts along its axis."""
-    shear_stiffness: float = param(100.0, POSITIVE, "N/m")
+    shear_stiffness: float = param(100.0, between(1e-3, 1e5), "N/m")
     """N/m, stiffness of a link against its two bodies sliding past each other across its axis (every link, passive
     ones too). A bellows is soft across as well as along; stiffer links need smaller PyBullet steps (docs/fidelity.md)."""
-    shear_damping: float = param(0.3, POSITIVE, "N s/m")
+    shear_damping: float = param(0.3, between(1e-6, 1e3), "N s/m")
     """N s/m, damping of that shear motion (PyBullet only: the quasi-static model has no rates)."""
-    bending_stiffness: float = param(0.1, POSITIVE, "N m/rad")
+    bending_stiffness: float = param(0.1, between(1e-6, 100), "N m/rad")
     """N m/rad, stiffness of a link against its two bodies turning relative to each other across its axis: a body's
     friction torque (about 0.005 N m) bends a link by about 3 degrees."""
-    twist_stiffness: float = param(0.05, POSITIVE, "N m/rad")
+    twist_stiffness: float = param(0.05, between(1e-6, 100), "N m/rad")
     """N m/rad, stiffness against the two bodies turning relative to each other about the link's axis (PyBullet
     only: the planar model has no twist)."""
-    rotational_damping: float = param(2e-4, POSITIVE, "N m s/rad")
+    rotational_damping: float = param(2e-4, between(1e-9, 1), "N m s/rad")
     """N m s/rad, damping of the relative rotation (PyBullet only)."""
-    tau_inflate: float = param(0.3, POSITIVE, "s")
+    tau_inflate: float = param(0.3, between(1e-3, 100), "s")
     """s, pressure time constant while the pump runs."""
-    tau_vent: float = param(0.3, POSITIVE, "s")
+    tau_vent: float = param(0.3, between(1e-3, 100), "s")
     """s, pressure time constant while the bellows vents."""
-    alpha: float = param(0.4, Range(0, 1, low_inclusive=False), "fraction of a cycle")
-    """fraction of each cycle the pump runs, in (0, 1)."""
-    cycle_time: float = param(2.0, POSITIVE, "s")
-    """s, duration of one actuation cycle."""
+    alpha: float = param(0.4, between(0.01, 0.99), "fraction of a cycle")
+    """fraction of each cycle the pump runs, in [0.01, 0.99] (and both the pump and the vent phase must span a few
+    physics ticks: ``check_timing``)."""
+    cycle_time: float = param(2.0, between(0.01, 3600), "s")
+    """s, duration of one actuation cycle (10 ms to an hour)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -312,15 +339,15 @@ class PhysicsParams:
     axis for a chain, morphbench.physics.quasistatic, and in the plane otherwise, morphbench.physics.planar);
     'auto': quasistatic where it applies, pybullet for stacks (and for the camera sensor, which renders a PyBullet
     scene). The quasi-static model is the limit the PyBullet world converges to (docs/fidelity.md)."""
-    timestep: float = param(1 / 120, POSITIVE, "s")
+    timestep: float = param(1 / 120, between(1e-4, 0.1), "s")
     """s, physics step (quasistatic: the interval between solves; the solution depends on time only through the
     pressures)."""
-    solver_iterations: int = param(10, COUNT)
+    solver_iterations: int = param(10, between(1, 1000, integer=True))
     """constraint solver iterations per physics step (pybullet only)."""
-    substeps: int = param(1, COUNT)
+    substeps: int = param(1, between(1, 100, integer=True))
     """PyBullet steps (and link-force updates) per tick (pybullet only): the links' springs are explicit, so stiffer
     links than the default, or stacks of three layers or more, need 2 or more."""
-    settle_time: float = param(0.25, POSITIVE, "s")
+    settle_time: float = param(0.25, between(0, 60, low_inclusive=False), "s")
     """s, simulated before the first cycle so the units rest on the ground (pybullet only)."""
     cone_friction: bool = param(True, BOOL)
     """pybullet only: Bullet's implicit friction cone (True) or its pyramid of two friction directions per contact
@@ -356,12 +383,12 @@ class LearnerParams:
     temperature: float = param(0.5, Range(0, math.inf, high_inclusive=True), "mm/cycle")
     """T, mm/cycle: a worse trial (lower velocity by d) is accepted with probability exp(-d / T). Chosen as the
     spec asks: a noiseless 3-unit Thermal run accepts about 25% of trials once learned (docs/fidelity.md)."""
-    cycles_per_step: int = param(2, COUNT, "cycles")
+    cycles_per_step: int = param(2, CYCLES, "cycles")
     """n_act: actuation cycles per learning step; a measurement is the displacement over them / n_act."""
-    warmup_cycles: int = param(1, NATURAL, "cycles")
+    warmup_cycles: int = param(1, between(0, MAX_CYCLES_PER_STEP, integer=True), "cycles")
     """cycles the units run at their initial phases before the first measurement, so that step 0 does not
     measure the start from rest (the first extension from rest is a one-off transient of several mm)."""
-    discard_cycles: int = param(1, NATURAL, "cycles")
+    discard_cycles: int = param(1, between(0, MAX_CYCLES_PER_STEP, integer=True), "cycles")
     """cycles run after each phase change before the measurement starts. Without one, a unit's 2-cycle measurement
     also holds the change of its own offset in the chain between the window's edges, several mm/cycle after a phase
     change; the paper (whose velocity calculation is in a supplement we lack) reaches its first result only
@@ -378,13 +405,13 @@ class FrictionFieldParams:
 
     amplitude: float = param(0.0, Range(0, 1))
     """a, in [0, 1): 0 is a uniform ground; the spec suggests 0.2-0.4."""
-    correlation_length: float = param(0.06, POSITIVE, "m")
+    correlation_length: float = param(0.06, between(0.001, 100), "m")
     """m, shortest wavelength in the field (about one unit)."""
-    period: float = param(2.0, POSITIVE, "m")
+    period: float = param(2.0, between(0.01, 1e4), "m")
     """m, the field repeats with this period along x (and y): the length of the paper's circular track, unrolled."""
     two_d: bool = param(False, BOOL)
     """false: the field varies along x only (a track); true: along x and y (a plane)."""
-    seed: int = param(1, NATURAL)
+    seed: int = param(1, SEED)
     """the same seed gives the same field."""
 
 
@@ -392,12 +419,12 @@ class FrictionFieldParams:
 class EnvironmentParams:
     """The world the robot runs in; events can change some of it during a run (morphbench.experiment.events)."""
 
-    friction_scale: float = param(1.0, POSITIVE)
+    friction_scale: float = param(1.0, between(0, 100, low_inclusive=False))
     """multiplies every body's friction (a friction drop is an event that changes it)."""
-    vibration: float = param(1.0, POSITIVE)
+    vibration: float = param(1.0, between(0, 10, low_inclusive=False))
     """factor on an active unit's friction while its own pump runs (the pump shakes the unit); 1 is no vibration,
     the spec suggests 0.8. The dummy never vibrates."""
-    noise: float = param(0.0, NON_NEGATIVE, "mm/cycle")
+    noise: float = param(0.0, between(0, 1000), "mm/cycle")
     """mm/cycle, standard deviation of Gaussian noise added to each measured velocity, on top of the sensor's own."""
     friction_field: FrictionFieldParams = field(default_factory=FrictionFieldParams)
     ground: GroundParams = field(default_factory=lambda: GroundParams())
@@ -411,20 +438,20 @@ class GroundParams:
 
     image: str = param("", TEXT)
     """path of an image file used as the tile, read in greyscale; '' makes a procedural tile from the fields below."""
-    seed: int = param(1, NATURAL)
+    seed: int = param(1, SEED)
     """seed of the procedural tile: the same seed gives the same ground."""
-    grain: float = param(0.003, POSITIVE, "m")
+    grain: float = param(0.003, between(1e-6, 1), "m")
     """m, feature size of the procedural tile: standard deviation of the Gaussian that smooths its white noise
     (2 pixels of the default optical sensor, which Lucas-Kanade tracks best)."""
     contrast: float = param(0.5, Range(0, 1, low_inclusive=False, high_inclusive=True))
     """in (0, 1], of the procedural tile: its grey levels have a standard deviation of contrast / 6 of the full range
     around mid-grey, so +-3 standard deviations span this fraction of black to white."""
-    resolution: float = param(0.0015, POSITIVE, "m")
+    resolution: float = param(0.0015, between(1e-6, 1), "m")
     """m, ground size of one tile pixel, for a procedural tile and an image file alike (the default is the optical
     sensor's pixel size)."""
-    length: float = param(2.0, POSITIVE, "m")
+    length: float = param(2.0, between(0, 1e4, low_inclusive=False), "m")
     """m, procedural tile's extent along the world x axis (an image's extent is its size times the resolution)."""
-    width: float = param(0.5, POSITIVE, "m")
+    width: float = param(0.5, between(0, 1e4, low_inclusive=False), "m")
     """m, procedural tile's extent along the world y axis."""
 
 
@@ -440,24 +467,24 @@ class OpticalParams:
     would move more pixels per frame), and the cost grows with the frame rate.
     """
 
-    frame_rate: float = param(8.0, POSITIVE, "Hz")
+    frame_rate: float = param(8.0, between(0, 1e4, low_inclusive=False), "Hz")
     """Hz, frames per second: the sensor's sample rate."""
     patch_size: int = param(32, Range(16, 256, high_inclusive=True, integer=True), "px")
     """px, side of the square image: at least 16 (Lucas-Kanade needs a window of 7 px or more and room for it to
     move), at most 256 (a bigger one would cost more than the physics)."""
-    pixel_size: float = param(0.0015, POSITIVE, "m")
+    pixel_size: float = param(0.0015, between(1e-6, 0.1), "m")
     """m, ground size of one image pixel when the sensor looks straight down (its nominal resolution)."""
-    noise: float = param(0.01, NON_NEGATIVE, "fraction of the grey range")
+    noise: float = param(0.01, between(0, 10), "fraction of the grey range")
     """standard deviation of the Gaussian noise added to every pixel, as a fraction of the black-to-white range."""
-    blur: float = param(0.0, NON_NEGATIVE, "px")
+    blur: float = param(0.0, between(0, 100), "px")
     """px, standard deviation of a Gaussian blur of the optics, applied before the noise (0: none)."""
-    liftoff_height: float = param(0.0015, POSITIVE, "m")
+    liftoff_height: float = param(0.0015, between(0, 1, low_inclusive=False), "m")
     """m, above this height over the ground the sensor reports no motion, as a mouse does when lifted."""
-    mount_x: float = param(0.0, FINITE, "m")
+    mount_x: float = param(0.0, between(-1, 1), "m")
     """m, the sensor's position along the unit's forward axis, from the unit's centre."""
-    mount_y: float = param(0.0, FINITE, "m")
+    mount_y: float = param(0.0, between(-1, 1), "m")
     """m, the sensor's position along the unit's left axis, from the unit's centre."""
-    mount_depth: float = param(0.015, FINITE, "m")
+    mount_depth: float = param(0.015, between(-1, 1), "m")
     """m, how far below the unit's centre (along the unit's own down axis) the sensor sits: half the unit's height
     puts it on the underside, where a unit resting on the ground has zero lift."""
 
@@ -471,7 +498,7 @@ class SensorParams:
     cut out of the texture; 'camera': the same sensor with its images rendered by PyBullet's own camera (about 60x
     slower, for validation); 'ideal': the unit's true displacement (ground truth, also recorded as u_true in every
     run)."""
-    sample_period: float = param(0.125, POSITIVE, "s")
+    sample_period: float = param(0.125, between(0, 3600, low_inclusive=False), "s")
     """s, how often the ideal sensor reads the unit's pose; the ground truth of an optical run is sampled at the
     optical frame rate instead, so both read the same poses."""
     optical: OpticalParams = field(default_factory=lambda: OpticalParams())
@@ -493,21 +520,51 @@ class VideoParams:
     """px, frame height (an even number)."""
     fps: float = param(30.0, Range(0, 240, low_inclusive=False, high_inclusive=True), "frames per second")
     """frames per second of the output video (at most 50 for a GIF: browsers slow faster GIFs down)."""
-    speed: float = param(1.0, POSITIVE, "simulated seconds per video second")
+    speed: float = param(1.0, between(0, 1e5, low_inclusive=False), "simulated seconds per video second")
     """playback speed: simulated seconds per video second (> 1 is a time-lapse); a frame every speed / fps
     simulated seconds."""
     steps: tuple[int, int | None] | None = param(None, StepSpan())
     """learning steps to show, (first, last) inclusive, last None for 'to the end'; None shows every step. Step 0
     includes the warm-up before it."""
-    distance: float = param(0.0, NON_NEGATIVE, "m; 0 fits the assembly")
+    distance: float = param(0.0, between(0, 1000), "m; 0 fits the assembly")
     """m, from the camera to the point it looks at; 0 picks one that fits the whole assembly in the frame."""
     pitch: float = param(-30.0, Range(-89, 0, high_inclusive=True), "degrees; negative looks down")
     """degrees, camera elevation: 0 looks horizontally, -90 straight down. The camera looks along +y, so forward (+x)
     motion runs left to right in the image."""
     follow: bool = param(True, BOOL)
     """True: the camera follows the assembly (its mean body position, smoothed); False: it stays where it started."""
-    follow_time: float = param(4.0, POSITIVE, "simulated seconds")
+    follow_time: float = param(4.0, between(0, 1e5, low_inclusive=False), "simulated seconds")
     """s of simulated time, time constant of the camera's smoothing (two cycles by default, so it does not shake with
     each pump stroke)."""
     overlay: bool = param(True, BOOL)
     """draw simulated time, learning step, Ubar and each unit's phase on the frames."""
+
+
+# --- rules across fields: checked wherever a RunConfig is built -------------------------------------------------------
+
+
+def check_run(config: Any, source: str) -> None:
+    """ConfigError naming ``source`` unless the fields of a RunConfig fit together: steps and seed in range, the pump
+    and the vent phase each spanning MIN_TICKS_PER_PHASE physics ticks, a stretch of cycles (warm-up, discarded,
+    measured) at most MAX_TICKS_PER_ADVANCE ticks, and the friction field at most MAX_FIELD_WAVES waves per period."""
+    check_rule(STEPS, "", config.steps, source, "steps")
+    check_rule(SEED, "", config.seed, source, "seed")
+    actuator, physics, learner = config.shape.actuator, config.physics, config.learner_params
+    tick, cycle = physics.timestep, actuator.cycle_time
+    shorter = min(actuator.alpha, 1 - actuator.alpha)
+    if shorter * cycle < MIN_TICKS_PER_PHASE * tick:
+        raise ConfigError(source, "actuator.cycle_time",
+                          f"a cycle_time >= {MIN_TICKS_PER_PHASE * tick / shorter:g} s, so that with alpha "
+                          f"{actuator.alpha:g} the pump and the vent phase each last {MIN_TICKS_PER_PHASE} physics "
+                          f"ticks of {tick:g} s", cycle)
+    cycles = max(learner.warmup_cycles, learner.discard_cycles, learner.cycles_per_step)
+    if cycles * cycle / tick > MAX_TICKS_PER_ADVANCE:
+        raise ConfigError(source, "learner.cycles_per_step",
+                          f"at most {int(MAX_TICKS_PER_ADVANCE * tick / cycle)} cycles in a stretch of warm-up, "
+                          f"discarded or measured cycles ({MAX_TICKS_PER_ADVANCE} physics ticks of {tick:g} s)",
+                          cycles)
+    friction = config.environment.friction_field
+    if friction.period / friction.correlation_length > MAX_FIELD_WAVES:
+        raise ConfigError(source, "environment.friction_field.correlation_length",
+                          f"at least period / {MAX_FIELD_WAVES} = {friction.period / MAX_FIELD_WAVES:g} m",
+                          friction.correlation_length)

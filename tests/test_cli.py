@@ -204,14 +204,14 @@ def test_bad_shape_file(tmp_path: Path, capsys, command: str):
 @pytest.mark.parametrize(
     "option, value, expected",
     [
-        ("--steps", "-1", "expected an integer >= 0, got '-1'"),
-        ("--steps", "abc", "expected an integer >= 0, got 'abc'"),
-        ("--steps", "2.5", "expected an integer >= 0"),
+        ("--steps", "-1", "expected an integer in [0, 1000000], got '-1'"),
+        ("--steps", "abc", "expected an integer in [0, 1000000], got 'abc'"),
+        ("--steps", "2.5", "expected an integer in [0, 1000000]"),
         ("--temperature", "-0.1", "expected a number >= 0 or inf (mm/cycle), got '-0.1'"),
         ("--temperature", "nan", "expected a number >= 0 or inf"),
         ("--step-size", "2", "expected a number in [0, 1] (cycles), got '2'"),
-        ("--noise", "-1", "expected a finite number >= 0 (mm/cycle), got '-1'"),
-        ("--cycles-per-step", "0", "expected an integer >= 1"),
+        ("--noise", "-1", "expected a number in [0, 1000] (mm/cycle), got '-1'"),
+        ("--cycles-per-step", "0", "expected an integer in [1, 1000] (cycles)"),
         ("--physics", "slow", "invalid choice: 'slow'"),
     ],
 )

@@ -83,7 +83,7 @@ def test_choices_and_nested_tables_use_the_same_rules():
     (P.Range(0, math.inf, high_inclusive=True), "a number >= 0 or inf"),
     (P.Range(1, integer=True), "an integer >= 1"),
     (P.Range(16, 64, high_inclusive=True, integer=True, even=True), "an even integer in [16, 64]"),
-    (P.FINITE, "a finite number"),
+    (P.Range(low_inclusive=False), "a finite number"),
 ])
 def test_range_descriptions(rule, text):
     assert rule.describe() == text
@@ -91,5 +91,5 @@ def test_range_descriptions(rule, text):
 
 def test_integers_and_infinities():
     assert not P.COUNT.accepts(2.0) and not P.COUNT.accepts(True) and P.COUNT.accepts(np.int64(3))
-    assert not P.FINITE.accepts(-math.inf) and not P.NON_NEGATIVE.accepts(math.inf)
+    assert not P.Range(low_inclusive=False).accepts(-math.inf) and not P.Range(0).accepts(math.inf)
     assert type(P.check(P.LearnerParams, "temperature", 1, "s")) is float  # files' integers become floats

@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from morphbench.errors import ConfigError
-from morphbench.params import ActuatorParams, DummyParams, UnitParams
+from morphbench.params import ActuatorParams, DummyParams, UnitParams, rule_of
 from morphbench.shapes import Shape, load_shape, params_from_table, shape_from_table
 from morphbench.shapes.loader import MAX_UNITS
 
@@ -105,8 +105,9 @@ def test_dummy_table_sets_the_dummy_body_only(tmp_path: Path):
 @pytest.mark.parametrize("cls", [UnitParams, DummyParams, ActuatorParams])
 def test_params_from_table(cls):
     assert params_from_table(cls, {}, "src", "section") == cls()
-    first = dataclasses.fields(cls)[0].name
-    assert params_from_table(cls, {first: 0.5}, "src", "section") == cls(**{first: 0.5})
+    first = dataclasses.fields(cls)[0]
+    half = first.default / 2  # in range for the first field of each
+    assert params_from_table(cls, {first.name: half}, "src", "section") == cls(**{first.name: half})
     with pytest.raises(ConfigError, match=r"^src: section\.bogus: expected one of the known keys"):
         params_from_table(cls, {"bogus": 1.0}, "src", "section")
 
@@ -144,10 +145,10 @@ BAD = [
     ("unknown-assembly", ASSEMBLY + "count = 2\n", "assembly.count", "one of the known keys dummy, generator, units"),
     ("unknown-nested-table", ASSEMBLY + "[unit.extra]\na = 1\n", "unit.extra", "one of the known keys"),
     # wrong types
-    ("string-for-number", ASSEMBLY + '[unit]\nmass = "heavy"\n', "unit.mass", "a finite number"),
-    ("bool-for-number", ASSEMBLY + "[actuator]\nstroke = true\n", "actuator.stroke", "a finite number"),
-    ("array-for-number", ASSEMBLY + "[dummy]\nmass = [1, 2]\n", "dummy.mass", "a finite number"),
-    ("date-for-number", ASSEMBLY + "[actuator]\ncycle_time = 1979-05-27\n", "actuator.cycle_time", "a finite number"),
+    ("string-for-number", ASSEMBLY + '[unit]\nmass = "heavy"\n', "unit.mass", "a number in"),
+    ("bool-for-number", ASSEMBLY + "[actuator]\nstroke = true\n", "actuator.stroke", "a number in"),
+    ("array-for-number", ASSEMBLY + "[dummy]\nmass = [1, 2]\n", "dummy.mass", "a number in"),
+    ("date-for-number", ASSEMBLY + "[actuator]\ncycle_time = 1979-05-27\n", "actuator.cycle_time", "a number in"),
     ("number-for-bool", ASSEMBLY + "dummy = 1\n", "assembly.dummy", "true or false"),
     ("string-for-bool", ASSEMBLY + 'dummy = "yes"\n', "assembly.dummy", "true or false"),
     ("number-for-name", "name = 3\n" + ASSEMBLY, "name", "a string"),
@@ -156,17 +157,17 @@ BAD = [
     ("array-of-tables", ASSEMBLY + "[[actuator]]\nstroke = 0.01\n", "actuator", "a table of ActuatorParams fields"),
     ("number-for-assembly", "assembly = 3\n", "assembly", "a table"),
     # out of range
-    ("negative-mass", ASSEMBLY + "[unit]\nmass = -0.05\n", "unit.mass", "a finite number > 0 (kg)"),
-    ("zero-dummy-mass", ASSEMBLY + "[dummy]\nmass = 0\n", "dummy.mass", "a finite number > 0 (kg)"),
-    ("zero-stroke", ASSEMBLY + "[actuator]\nstroke = 0.0\n", "actuator.stroke", "a finite number > 0 (m)"),
-    ("negative-friction", ASSEMBLY + "[unit]\nfriction = -0.1\n", "unit.friction", "a finite number >= 0"),
-    ("alpha-0", ASSEMBLY + "[actuator]\nalpha = 0\n", "actuator.alpha", "a number in (0, 1)"),
-    ("alpha-1", ASSEMBLY + "[actuator]\nalpha = 1.0\n", "actuator.alpha", "a number in (0, 1)"),
-    ("nan", ASSEMBLY + "[unit]\nlength = nan\n", "unit.length", "a finite number"),
-    ("alpha-nan", ASSEMBLY + "[actuator]\nalpha = nan\n", "actuator.alpha", "a number in (0, 1)"),
-    ("inf", ASSEMBLY + "[actuator]\ncycle_time = inf\n", "actuator.cycle_time", "a finite number"),
-    ("minus-inf", ASSEMBLY + "[dummy]\nfriction = -inf\n", "dummy.friction", "a finite number"),
-    ("plus-inf", ASSEMBLY + "[actuator]\nmax_force = +inf\n", "actuator.max_force", "a finite number"),
+    ("negative-mass", ASSEMBLY + "[unit]\nmass = -0.05\n", "unit.mass", "a number in [0.001, 10] (kg)"),
+    ("zero-dummy-mass", ASSEMBLY + "[dummy]\nmass = 0\n", "dummy.mass", "a number in [0.001, 10] (kg)"),
+    ("zero-stroke", ASSEMBLY + "[actuator]\nstroke = 0.0\n", "actuator.stroke", "a number in [0.0001, 0.1] (m)"),
+    ("negative-friction", ASSEMBLY + "[unit]\nfriction = -0.1\n", "unit.friction", "a number in [0, 10]"),
+    ("alpha-0", ASSEMBLY + "[actuator]\nalpha = 0\n", "actuator.alpha", "a number in [0.01, 0.99]"),
+    ("alpha-1", ASSEMBLY + "[actuator]\nalpha = 1.0\n", "actuator.alpha", "a number in [0.01, 0.99]"),
+    ("nan", ASSEMBLY + "[unit]\nlength = nan\n", "unit.length", "a number in"),
+    ("alpha-nan", ASSEMBLY + "[actuator]\nalpha = nan\n", "actuator.alpha", "a number in [0.01, 0.99]"),
+    ("inf", ASSEMBLY + "[actuator]\ncycle_time = inf\n", "actuator.cycle_time", "a number in"),
+    ("minus-inf", ASSEMBLY + "[dummy]\nfriction = -inf\n", "dummy.friction", "a number in"),
+    ("plus-inf", ASSEMBLY + "[actuator]\nmax_force = +inf\n", "actuator.max_force", "a number in"),
     # the assembly
     ("missing-assembly", 'description = "no assembly"\n[unit]\nmass = 0.1\n', "assembly", "an [assembly] table"),
     ("unknown-generator", '[assembly]\ngenerator = "ring"\nunits = 2\n', "assembly.generator", "one of chain"),
@@ -194,7 +195,7 @@ def test_bad_file(tmp_path: Path, text: str, key: str, expected: str):
 
 
 def test_values_are_echoed(tmp_path: Path):
-    error = assert_config_error(write(tmp_path, ASSEMBLY + "[unit]\nmass = -0.05\n"), "unit.mass", "> 0")
+    error = assert_config_error(write(tmp_path, ASSEMBLY + "[unit]\nmass = -0.05\n"), "unit.mass", "[0.001, 10]")
     assert str(error).endswith("got -0.05")
 
 
@@ -272,21 +273,14 @@ def to_toml(table: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _range(key: str) -> str:
-    return {"alpha": "open01", "friction": "nonnegative"}.get(key, "positive")
-
-
-def _valid_number(key: str):
-    kind = _range(key)
-    if kind == "open01":
-        return st.floats(0.0, 1.0, exclude_min=True, exclude_max=True)
-    if kind == "nonnegative":
-        return st.floats(0.0, 10.0) | st.integers(0, 10)
-    return st.floats(1e-6, 1e3) | st.integers(1, 1000)
+def _valid_number(cls, key: str):
+    """Any number the field's own rule (morphbench.params) accepts."""
+    rule = rule_of(cls, key)[0]
+    return st.floats(rule.low, rule.high, exclude_min=not rule.low_inclusive, exclude_max=not rule.high_inclusive)
 
 
 def _section(cls):
-    return st.fixed_dictionaries({}, optional={f.name: _valid_number(f.name) for f in dataclasses.fields(cls)})
+    return st.fixed_dictionaries({}, optional={f.name: _valid_number(cls, f.name) for f in dataclasses.fields(cls)})
 
 
 text = st.text(st.characters(blacklist_categories=("Cs",)), max_size=12)
@@ -356,14 +350,12 @@ TYPED_FIELDS = [*((f"{s}.{k}", "number") for s, k in NUMBER_FIELDS),
                 *((s, "section") for s in SECTIONS)]
 
 
-def _out_of_range(key: str):
-    bad_floats = st.just(math.nan) | st.just(math.inf) | st.just(-math.inf)
-    kind = _range(key)
-    if kind == "open01":
-        return bad_floats | st.floats(max_value=0.0) | st.floats(min_value=1.0) | st.integers(max_value=0) | st.integers(1)
-    if kind == "nonnegative":
-        return bad_floats | st.floats(max_value=-1e-300) | st.integers(max_value=-1)
-    return bad_floats | st.floats(max_value=0.0) | st.integers(max_value=0)
+def _out_of_range(cls, key: str):
+    """NaN, an infinity or a number just outside either end of the field's rule."""
+    rule = rule_of(cls, key)[0]
+    return (st.just(math.nan) | st.just(math.inf) | st.just(-math.inf)
+            | st.floats(max_value=rule.low, exclude_max=rule.low_inclusive)
+            | st.floats(min_value=rule.high, exclude_min=rule.high_inclusive))
 
 
 def _set(table: dict, dotted: str, value) -> None:
@@ -396,7 +388,7 @@ def malformed_tables(draw) -> tuple[dict, str]:
         return table, dotted
     if mistake == "out of range":
         section, key = draw(st.sampled_from(NUMBER_FIELDS))
-        _set(table, f"{section}.{key}", draw(_out_of_range(key)))
+        _set(table, f"{section}.{key}", draw(_out_of_range(SECTIONS[section], key)))
         return table, f"{section}.{key}"
     _set(table, "assembly.units", draw(st.integers(max_value=0) | st.integers(min_value=MAX_UNITS + 1, max_value=2**63 - 1)))
     return table, "assembly.units"

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 EXIT_FAILED_RUNS = 1
@@ -23,7 +24,8 @@ def add_bench_commands(subparsers) -> None:
     bench.add_argument("--out", required=True, help="results directory; run again to resume an interrupted suite")
     where = bench.add_mutually_exclusive_group()
     where.add_argument("--workers", type=_positive_int, default=None,
-                       help="local worker processes (default: the cores available)")
+                       help="local worker processes (default: the cores available; at most the number of jobs and "
+                            "of CPUs are used)")
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="run on a Dask distributed cluster, e.g. tcp://10.0.0.5:8786 (needs morphbench[dask])")
     bench.add_argument("--resume", action="store_true",
@@ -49,7 +51,7 @@ def cmd_bench(args) -> int:
 
     suite = load_suite(args.suite)
     client = connect(args.scheduler) if args.scheduler else None  # a bad address fails before anything runs
-    executor = DaskExecutor(client) if client is not None else LocalExecutor(args.workers)
+    executor = DaskExecutor(client) if client is not None else LocalExecutor(args.workers and min(args.workers, os.cpu_count() or 1))
     try:
         outcome = run_suite(suite, args.out, executor, resume=args.resume, retry_failed=args.retry_failed,
                             progress=not args.quiet)
@@ -79,7 +81,11 @@ def cmd_bench(args) -> int:
 
 def cmd_report(args) -> int:
     from morphbench.bench.report import build_report
+    from morphbench.errors import ConfigError
 
+    if not os.path.isdir(args.dir):
+        raise ConfigError("report", args.dir, "a results directory written by 'morphbench bench'"
+                                              + (" (this is a file)" if os.path.exists(args.dir) else ""))
     path = build_report(args.dir)
     print(f"report in {path}")
     return 0

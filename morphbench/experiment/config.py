@@ -51,6 +51,7 @@ from morphbench.params import (
     LearnerParams,
     PhysicsParams,
     SensorParams,
+    TEXT,
     check_rule,
 )
 from morphbench.shapes import Shape, load_shape, params_from_table, read_toml, shape_from_table
@@ -77,6 +78,9 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path,
     if not isinstance(table.get("shape"), str):
         raise ConfigError(source, "shape", "the path of a morphology file (a string, relative to this file)",
                           table.get("shape", ...))
+    check_rule(TEXT, "", table.get("description", ""), source, "description")
+    if "\0" in table["shape"]:
+        raise ConfigError(source, "shape", "a path without a NUL byte", table["shape"])
     path = base / table["shape"]
     if not path.is_file():
         raise ConfigError(source, "shape", f"an existing morphology file (there is no file {path})", table["shape"])

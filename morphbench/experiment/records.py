@@ -24,8 +24,8 @@ A run directory holds:
 - ``summary.json``: the full configuration, seed, final Ubar, mean acceptance, sensor error, wall time, the final
   ``u_heading`` (``final_u_heading``, over the same final steps as final Ubar) and the turning rate
   (``turning_rate_deg_per_cycle``: degrees per pump cycle over the learning steps).
-Read them with ``pandas.read_parquet``. Every file is written to a temporary name and renamed, so a directory never
-holds a half-written file.
+Read them with ``pandas.read_parquet``. The directory is written whole (``RunRecords.write``): a killed or interrupted
+run leaves the earlier directory or the new one complete, never half of one.
 """
 
 from __future__ import annotations
@@ -33,12 +33,12 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
 
-from morphbench.files import atomic_write, write_text
+from morphbench.files import atomic_write, replace_directory  # noqa: F401 (bench.store takes atomic_write from here)
 
 UNIT_COLUMNS = ("step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true", "accepted",
                 "x_m", "y_m", "heading_rad")
@@ -160,16 +160,21 @@ class RunRecords:
         final = pieces[pieces.step.isin(last_steps)].groupby("piece").ubar_true.mean()
         return {str(piece): float(value) for piece, value in final.items()}
 
-    def write(self, out_dir: str | Path) -> Path:
-        """Write ``units.parquet``, ``steps.parquet``, ``pieces.parquet`` and ``summary.json`` into ``out_dir``."""
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        atomic_write(out / "units.parquet", lambda tmp: self.units().to_parquet(tmp, index=False))
-        atomic_write(out / "steps.parquet", lambda tmp: self.steps().to_parquet(tmp, index=False))
-        atomic_write(out / "pieces.parquet", lambda tmp: self.pieces().to_parquet(tmp, index=False))
-        text = json.dumps(self.summary(), indent=2, sort_keys=True)
-        write_text(out / "summary.json", text + "\n")
-        return out
+    def write(self, out_dir: str | Path, more: Callable[[Path], object] | None = None) -> Path:
+        """Write ``units.parquet``, ``steps.parquet``, ``pieces.parquet`` and ``summary.json`` (and whatever
+        ``more(directory)`` writes, e.g. figures) as the directory ``out_dir``: into a new directory beside it, then
+        swapped in whole, so ``out_dir`` holds an earlier run or this one complete, never a mix."""
+
+        def write_all(directory: Path) -> None:
+            self.units().to_parquet(directory / "units.parquet", index=False)
+            self.steps().to_parquet(directory / "steps.parquet", index=False)
+            self.pieces().to_parquet(directory / "pieces.parquet", index=False)
+            text = json.dumps(self.summary(), indent=2, sort_keys=True)
+            (directory / "summary.json").write_text(text + "\n", encoding="utf-8")
+            if more is not None:
+                more(directory)
+
+        return replace_directory(out_dir, write_all)
 
 
 def final_steps(n_learning: int) -> int:

@@ -28,6 +28,7 @@ from morphbench.params import (
     LearnerParams,
     PhysicsParams,
     SensorParams,
+    check_run,
 )
 from morphbench.physics import World, make_world
 from morphbench.physics.camera import CameraGround
@@ -53,6 +54,9 @@ class RunConfig:
     steps: int = 100
     """learning steps after the initial measurement (step 0)."""
     seed: int = 0
+
+    def __post_init__(self):
+        check_run(self, self.shape.source)
 
     def to_dict(self) -> dict:
         """JSON-ready: the shape by its file, every parameter by field (what summary.json stores)."""

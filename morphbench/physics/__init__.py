@@ -6,12 +6,43 @@ along a line by ``QuasiStaticWorld`` for chains and by ``PlanarWorld`` for any a
 ``make_world`` picks the one ``physics`` names.
 """
 
-from morphbench.errors import ConfigError
-from morphbench.params import PHYSICS_BACKENDS, EnvironmentParams, PhysicsParams
-from morphbench.physics.planar import PlanarWorld, check_one_layer
-from morphbench.physics.pressure import pressure_trajectory, pump_on
-from morphbench.physics.quasistatic import QuasiStaticWorld, chain_axis
-from morphbench.physics.world import World
+import ctypes
+import os
+import sys
+
+
+def _import_pybullet_quietly() -> None:
+    """``import pybullet`` prints its build time straight to the C-level stdout or stderr, beside whatever the
+    command prints (a one-line error among others): the first import is made with both file descriptors on
+    /dev/null, then they are restored. Every module that imports pybullet is loaded after this package."""
+    if "pybullet" in sys.modules:
+        return
+    for stream in (sys.stdout, sys.stderr):
+        if stream is not None:
+            stream.flush()
+    saved = {fd: os.dup(fd) for fd in (1, 2)}
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        for fd in saved:
+            os.dup2(devnull, fd)
+        import pybullet  # noqa: F401
+
+        ctypes.CDLL(None).fflush(None)  # the banner may still sit in C's stdout buffer
+    finally:
+        for fd, copy in saved.items():
+            os.dup2(copy, fd)
+            os.close(copy)
+        os.close(devnull)
+
+
+_import_pybullet_quietly()
+
+from morphbench.errors import ConfigError  # noqa: E402
+from morphbench.params import PHYSICS_BACKENDS, EnvironmentParams, PhysicsParams  # noqa: E402
+from morphbench.physics.planar import PlanarWorld, check_one_layer  # noqa: E402
+from morphbench.physics.pressure import pressure_trajectory, pump_on  # noqa: E402
+from morphbench.physics.quasistatic import QuasiStaticWorld, chain_axis  # noqa: E402
+from morphbench.physics.world import World  # noqa: E402
 
 
 def quasistatic_world(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from morphbench.errors import ConfigError
 from morphbench.params import VideoParams, field_option
 from morphbench.render.checks import check_video_params
 
@@ -30,11 +31,16 @@ def add_render_arguments(parser: argparse.ArgumentParser, output: bool = True) -
                             "(default all)")
 
 
-def video_params_from_args(args: argparse.Namespace) -> VideoParams:
-    """The VideoParams of parsed ``add_render_arguments`` options (ConfigError naming the option if out of range)."""
+def video_params_from_args(args: argparse.Namespace, last_step: int | None = None) -> VideoParams:
+    """The VideoParams of parsed ``add_render_arguments`` options (ConfigError naming the option if out of range, or
+    if ``--video-steps`` starts after ``last_step``, the run's last learning step, when it is known)."""
     params = VideoParams(width=args.video_width, height=args.video_height, fps=args.video_fps,
                          speed=args.video_speed, steps=args.video_steps)
-    return check_video_params(params, cli=True)
+    check_video_params(params, cli=True)
+    if last_step is not None and params.steps is not None and params.steps[0] > last_step:
+        raise ConfigError("--video-steps", "steps", f"learning steps of this run, which ends at step {last_step}",
+                          f"{params.steps[0]}:{'' if params.steps[1] is None else params.steps[1]}")
+    return params
 
 
 def _step_range(text: str) -> tuple[int, int | None]:
