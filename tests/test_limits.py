@@ -166,3 +166,10 @@ def test_an_error_after_the_simulator_is_imported_is_one_line_in_all(tmp_path):
     assert result.stdout == ""
     assert result.stderr == ("morphbench: error: --video-steps: steps: expected learning steps of this run, which "
                              "ends at step 3, got '9:'\n")
+
+
+def test_a_mesh_path_longer_than_the_file_system_takes(tmp_path, capsys):
+    path = tmp_path / "long-mesh.toml"
+    path.write_text(f'[assembly]\ngenerator = "chain"\nunits = 2\n[unit]\nmesh = "{"x" * 300}.obj"\n', encoding="utf-8")
+    error = _one_line_error(capsys, "shapes", "check", str(path))
+    assert f"{path}: unit.mesh: expected an existing mesh file" in error

@@ -43,7 +43,11 @@ def check_mesh(mesh: str, base: str | Path = ".") -> str:
         raise ValueError(f"'' (a box), one of {', '.join(PRIMITIVES)} or a mesh file ({', '.join(MESH_SUFFIXES)})")
     if not path.is_absolute():
         path = Path(base) / path
-    if not path.is_file():
+    try:
+        exists = path.is_file()
+    except (OSError, ValueError):  # a name longer than the file system takes, a NUL byte
+        exists = False
+    if not exists:
         raise ValueError(f"an existing mesh file (relative paths start at the morphology file's directory: {path})")
     _unit_mesh(str(path))  # raises ValueError if it is not a closed surface
     return str(path)
