@@ -159,24 +159,26 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
                              config.shape.n_units)
     records = RunRecords(config)
     started = time.perf_counter()
-    with make_world(config.shape, config.physics, config.environment, scene=config.sensor.kind == "camera") as world:
-        loop = _RunLoop(config, learners, world, on_tick)
+    with run_world(config) as world:
+        loop = RunLoop(config, learners, world, on_tick)
         loop.warm_up()
         for step in range(config.steps + 1):
-            applied = loop.apply_events(step)
-            tried = loop.propose(step)
-            u_measured, u_true = loop.actuate_and_measure()
-            loop.check_physics(step)
-            accepted = loop.update(u_measured, step)
-            loop.record(records, step, tried, u_measured, u_true, accepted, applied)
+            loop.step(step, records)
             if progress is not None:
                 progress(step, records)
     records.finish(wall_time=time.perf_counter() - started)
     return records
 
 
-class _RunLoop:
-    """One run's world, sensors, learners and what events change; each method is a phase of the run."""
+def run_world(config: RunConfig) -> World:
+    """The world a run of ``config`` happens in (a PyBullet scene when its sensor is the camera)."""
+    return make_world(config.shape, config.physics, config.environment, scene=config.sensor.kind == "camera")
+
+
+class RunLoop:
+    """One run's world, sensors, learners and what events change; each method is a phase of the run.
+
+    ``run`` drives it, and so do the environments of morphbench.envs, one ``step`` at a time after ``warm_up``."""
 
     def __init__(self, config: RunConfig, learners: list, world: World, on_tick: Callable[[World], None] | None):
         n = config.shape.n_units
@@ -199,6 +201,16 @@ class _RunLoop:
         """Start every pump at its learner's initial phase and let the gait settle."""
         self.world.set_phases(self.kept)
         self._advance(self.config.learner_params.warmup_cycles)
+
+    def step(self, step: int, records: RunRecords) -> np.ndarray:
+        """Learning step ``step``, every phase in order, recorded; each unit's measured velocity (mm/cycle)."""
+        applied = self.apply_events(step)
+        tried = self.propose(step)
+        u_measured, u_true = self.actuate_and_measure()
+        self.check_physics(step)
+        accepted = self.update(u_measured, step)
+        self.record(records, step, tried, u_measured, u_true, accepted, applied)
+        return u_measured
 
     def apply_events(self, step: int) -> list[Event]:
         """The events of ``step``, applied in their order."""

@@ -1,0 +1,62 @@
+"""A run as a Gymnasium environment with one central controller: every unit's phase at once.
+
+The parallel environment (morphbench.envs.parallel) with all agents' actions, observations and rewards gathered:
+the action is every unit's trial phase (``Box(0, 1, (n,))``, unit order), the observation every unit's measured
+velocity (mm/cycle, 0 for a dead unit), the reward Ubar (the mean measured velocity of the living units, as in
+``steps.parquet``). An episode ends truncated after the configuration's ``steps``, terminated when no unit is left
+alive. Construction, seeding and ``records`` are the parallel environment's.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium.spaces import Box
+
+from morphbench.envs.parallel import ParallelEnv
+from morphbench.experiment.run import RunConfig
+from morphbench.params import PhysicsParams
+
+
+class CentralEnv(gymnasium.Env):
+    """See the module docstring; ``parallel`` is the wrapped environment."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, source: RunConfig | str | Path, *, steps: int | None = None,
+                 physics: str | PhysicsParams | None = None):
+        self.parallel = ParallelEnv(source, steps=steps, physics=physics)
+        n = len(self.parallel.possible_agents)
+        self.action_space = Box(0.0, 1.0, shape=(n,), dtype=np.float32)
+        self.observation_space = Box(-np.inf, np.inf, shape=(n,), dtype=np.float32)
+
+    @property
+    def records(self):
+        return self.parallel.records
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)  # Gymnasium's own np_random; the episode is seeded by the parallel environment
+        self.parallel.reset(seed=seed, options=options)
+        return self.parallel.state(), self._info()
+
+    def step(self, action):
+        action = np.asarray(action)
+        if action.shape != self.action_space.shape:
+            raise ValueError(f"CentralEnv: the action must be {self.action_space.shape[0]} phases, got shape "
+                             f"{action.shape}")
+        agents = self.parallel.possible_agents
+        _, _, terminations, truncations, _ = self.parallel.step(
+            {agent: action[u:u + 1] for u, agent in enumerate(agents) if agent in self.parallel.agents})
+        alive = [agent for agent in terminations if not terminations[agent]]
+        reward = self.records.last_ubar if alive else 0.0
+        return self.parallel.state(), float(reward), not alive, any(truncations.values()), self._info()
+
+    def _info(self) -> dict[str, Any]:
+        """The learning step and the phase each unit ran."""
+        return {"step": self.parallel.learning_step, "phases": self.parallel.phases()}
+
+    def close(self) -> None:
+        self.parallel.close()

@@ -1,0 +1,162 @@
+"""A run as a PettingZoo parallel environment: one agent per active unit, each choosing its own unit's phase.
+
+Agent ``unit_i`` is unit i (1 = starts at the front; it keeps its name when a shuffle moves it). Each ``step`` is
+one learning step of the run loop (morphbench.experiment.run.RunLoop, the loop of ``morphbench run``): the step's
+events, the agents' phases in place of the learners' proposals, the discarded and measured cycles, the validity
+check (a PhysicsError ends the episode), the records. An agent's action is its trial phase (``Box(0, 1, (1,))``,
+cycles; wrapped modulo 1), its observation and its reward what its own sensor measured during the step (mm/cycle,
+noise included). A unit killed by a 'dead' damage event measures nothing: its agent is terminated with observation
+and reward 0. After the configuration's ``steps`` learning steps every agent is truncated.
+
+``reset(seed)`` builds a fresh world, warms it up at the phases where a run of that seed starts (each unit's learner
+stream's first draw) and measures step 0 there: the initial observation. The same seed gives the same episode; the
+episode is recorded in ``records`` (a RunRecords, the schema of ``morphbench run``), where an agent's kept phase is
+the phase it ran (the environment keeps whatever it is given, so every living unit counts as accepting).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium.spaces import Box
+from pettingzoo import ParallelEnv as PettingZooParallelEnv
+
+from morphbench.experiment.config import load_run_config
+from morphbench.experiment.records import RunRecords
+from morphbench.experiment.run import RunConfig, RunLoop, run_world
+from morphbench.learning.base import wrap_phase
+from morphbench.learning.plugins import as_phase, learner_spec, unit_rng
+from morphbench.params import COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, PhysicsParams, check_rule
+from morphbench.shapes.loader import resolve_shape_path
+
+SOURCE = "morphbench.envs"
+
+
+class Agent:
+    """A unit's learner as the run loop sees it in an environment: it proposes the phase its agent chose (``action``)
+    and keeps it. A unit that died at the start of the step is not asked, so it keeps the phase it last ran."""
+
+    def __init__(self, phase: float):
+        self.phase = self.action = phase
+
+    def propose(self) -> float:
+        self.phase = self.action
+        return self.phase
+
+    def update(self, velocity: float) -> bool:
+        return True
+
+
+def env_config(source: RunConfig | str | Path, steps: int | None, physics: str | PhysicsParams | None) -> RunConfig:
+    """The run configuration of an environment: ``source`` (a RunConfig, or a run configuration or morphology file
+    or a library shape's name, as ``morphbench run`` takes them) with ``steps`` and ``physics`` (a preset's name or
+    PhysicsParams) overriding it, its learner the agents."""
+    config = source if isinstance(source, RunConfig) else load_run_config(resolve_shape_path(source))
+    if isinstance(physics, str):
+        physics = PHYSICS_PRESETS[check_rule(PHYSICS_PRESET, "", physics, SOURCE, "physics")]
+    config = dataclasses.replace(config, learner=learner_spec(Agent), steps=config.steps if steps is None else steps,
+                                 physics=config.physics if physics is None else physics)
+    check_rule(COUNT, "", config.steps, SOURCE, "steps")  # an episode needs a learning step
+    return config
+
+
+class ParallelEnv(PettingZooParallelEnv):
+    """See the module docstring. ``config``: the episode's run configuration (its seed the last reset's)."""
+
+    metadata = {"name": "morphbench_parallel_v0", "render_modes": []}
+
+    def __init__(self, source: RunConfig | str | Path, *, steps: int | None = None,
+                 physics: str | PhysicsParams | None = None):
+        self.config = env_config(source, steps, physics)
+        self.possible_agents = [f"unit_{u + 1}" for u in range(self.config.shape.n_units)]
+        self.agents: list[str] = []
+        # One space object per agent, the same at every call (PettingZoo seeds and compares them by identity).
+        self._action_spaces = {a: Box(0.0, 1.0, shape=(1,), dtype=np.float32) for a in self.possible_agents}
+        self._observation_spaces = {a: Box(-np.inf, np.inf, shape=(1,), dtype=np.float32)
+                                    for a in self.possible_agents}
+        self.records: RunRecords | None = None
+        """the current (or last) episode's records."""
+        self._world = None
+        self._seed: int | None = None
+
+    def observation_space(self, agent: str) -> Box:
+        return self._observation_spaces[agent]
+
+    def action_space(self, agent: str) -> Box:
+        return self._action_spaces[agent]
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
+        """A new episode seeded with ``seed`` (None: the configuration's seed at the first reset, then the previous
+        episode's seed + 1, so that a sequence of resets is reproducible); ``options`` are not used."""
+        self.close()
+        if seed is None:
+            seed = self.config.seed if self._seed is None else self._seed + 1
+        self._seed = check_rule(SEED, "", seed, SOURCE, "seed")
+        self.config = dataclasses.replace(self.config, seed=self._seed)
+        n = self.config.shape.n_units
+        self._learners = [Agent(wrap_phase(float(unit_rng(self._seed, u).uniform(0.0, 1.0)))) for u in range(n)]
+        self.records = RunRecords(self.config)
+        self._started = time.perf_counter()
+        self._world = run_world(self.config)
+        self._loop = RunLoop(self.config, self._learners, self._world, None)
+        self._loop.warm_up()
+        self.learning_step = 0
+        """the learning step last run (0: the initial measurement, at reset)."""
+        self.agents = list(self.possible_agents)
+        observations, _, _, _, infos = self._measure()
+        return observations, infos
+
+    def step(self, actions: dict[str, Any]):
+        """One learning step with each living agent's phase (every living agent must act)."""
+        if not self.agents:
+            raise RuntimeError(f"{SOURCE}: the episode is over (call reset())")
+        missing = [agent for agent in self.agents if agent not in actions]
+        if missing:
+            raise ValueError(f"{SOURCE}: every living agent must act; no action for {', '.join(missing)}")
+        for agent in self.agents:
+            self._learners[self.possible_agents.index(agent)].action = _phase(agent, actions[agent])
+        self.learning_step += 1
+        return self._measure()
+
+    def _measure(self):
+        """Run the current step through the run loop; its observations, rewards, terminations, truncations, infos
+        for the agents living before it, who leave ``agents`` when terminated or truncated."""
+        u_measured = self._loop.step(self.learning_step, self.records)
+        self._last = np.nan_to_num(u_measured, nan=0.0)
+        last_step = self.learning_step == self.config.steps
+        if last_step:
+            self.records.finish(wall_time=time.perf_counter() - self._started)
+        units = {agent: self.possible_agents.index(agent) for agent in self.agents}
+        observations = {a: np.array([self._last[u]], dtype=np.float32) for a, u in units.items()}
+        rewards = {a: float(self._last[u]) for a, u in units.items()}
+        terminations = {a: bool(np.isnan(u_measured[u])) for a, u in units.items()}
+        truncations = {a: last_step and not terminations[a] for a in units}
+        infos = {a: {"step": self.learning_step, "phase": self._learners[u].phase} for a, u in units.items()}
+        self.agents = [a for a in units if not (terminations[a] or truncations[a])]
+        return observations, rewards, terminations, truncations, infos
+
+    def state(self) -> np.ndarray:
+        """Every unit's velocity measured at the last step, mm/cycle, in unit order (0 for a dead unit)."""
+        return self._last.astype(np.float32)
+
+    def phases(self) -> np.ndarray:
+        """Every unit's phase during the last step, in unit order (a dead unit's is the one it died with)."""
+        return np.array([learner.phase for learner in self._learners])
+
+    def close(self) -> None:
+        if self._world is not None:
+            self._world.close()
+            self._world = None
+
+
+def _phase(agent: str, action: Any) -> float:
+    """An action as a phase in [0, 1): one finite number, wrapped modulo 1."""
+    value = np.asarray(action, dtype=float)
+    phase = as_phase(float(value.reshape(-1)[0])) if value.size == 1 else None
+    if phase is None:
+        raise ValueError(f"{SOURCE}: {agent}'s action must be one finite phase, got {action!r}")
+    return phase
