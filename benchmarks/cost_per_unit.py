@@ -45,7 +45,8 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per row")
     args = parser.parse_args()
     print(f"# {time.strftime('%Y-%m-%d')} {platform.machine()}  python {platform.python_version()}")
-    print("| shape | units | bodies | default backend | default wall s per simulated s | PyBullet fast wall s per simulated s |")
+    print("| shape | units | bodies | default backend | default wall s per simulated s | "
+          "PyBullet fast wall s per simulated s |")
     print("|---|---|---|---|---|---|")
     for kind, rows, columns in SHAPES:
         shape = shape_of(kind, rows, columns)
@@ -54,7 +55,8 @@ def main() -> None:
         default = seconds_per_second(shape, DEFAULT_PHYSICS, args.seconds)
         fast = seconds_per_second(shape, FAST_PHYSICS, args.seconds)
         name = f"chain-{columns}" if kind == "chain" else f"grid-{rows}x{columns}-xy"
-        print(f"| {name} | {shape.n_units} | {len(shape.bodies)} | {backend} | {default:.4f} | {fast:.4f} |", flush=True)
+        print(f"| {name} | {shape.n_units} | {len(shape.bodies)} | {backend} | {default:.4f} | {fast:.4f} |",
+              flush=True)
 
 
 if __name__ == "__main__":

@@ -106,7 +106,8 @@ def plane_section() -> list[str]:
              "|---|---|" + "---|" * len(backends)]
     for path, phases in (("shapes/chain-2.toml", (0.0, 0.4)), ("shapes/grid-2x2.toml", (0.0, 0.4, 0.0, 0.4))):
         shape = load_shape(path)
-        base = {name: motion_at(shape, phases, ph, cycles=CYCLES, discard=DISCARD).units.mean() for name, ph in backends}
+        base = {name: motion_at(shape, phases, ph, cycles=CYCLES, discard=DISCARD).units.mean()
+                for name, ph in backends}
         for degrees in (90, 30):
             ratios = [motion_at(rotate(shape, degrees), phases, ph, cycles=CYCLES, discard=DISCARD).units.mean()
                       / base[name] for name, ph in backends]
@@ -198,10 +199,10 @@ def main() -> None:
                      f"{axis[k % MAP_RESOLUTION]:.1f}), minimum {values.min():+.2f}")
 
     lines += ["", "## Stiffness sweep: towards the rigid limit", "",
-              "The bellows' stiffness times 1, 3 and 10 (PyBullet at the default setting where it stays finite) against "
-              "the quasi-static model with the same stiffness and with rigid bellows.", "",
-              "| stiffness (N/m) | PyBullet vs quasi-static, rms | PyBullet vs rigid, rms | quasi-static vs rigid, rms | "
-              "PyBullet peak | quasi-static peak |", "|---|---|---|---|---|---|"]
+              "The bellows' stiffness times 1, 3 and 10 (PyBullet at the default setting where it stays finite) "
+              "against the quasi-static model with the same stiffness and with rigid bellows.", "",
+              "| stiffness (N/m) | PyBullet vs quasi-static, rms | PyBullet vs rigid, rms | "
+              "quasi-static vs rigid, rms | PyBullet peak | quasi-static peak |", "|---|---|---|---|---|---|"]
     rigid = curve(chain(2, stiffness=1e7), QUASISTATIC_PHYSICS, w)
     for factor in (1, 3, 10):
         shape = chain(2, stiffness=actuator.stiffness * factor)
@@ -209,12 +210,12 @@ def main() -> None:
         try:
             p = curve(shape, FAST_PHYSICS, w)
         except Exception as exc:  # an unstable setting is a result here, not a crash of the benchmark
-            lines.append(f"| {actuator.stiffness * factor:g} | unstable ({type(exc).__name__}) | | {rms(q, rigid):.2f} | "
-                         f"| {q.max():+.2f} |")
+            lines.append(f"| {actuator.stiffness * factor:g} | unstable ({type(exc).__name__}) | | "
+                         f"{rms(q, rigid):.2f} | | {q.max():+.2f} |")
             continue
         ok = np.all(np.isfinite(p)) and np.abs(p).max() < 50
-        lines.append(f"| {actuator.stiffness * factor:g} | {rms(p, q):.2f} | {rms(p, rigid):.2f} | {rms(q, rigid):.2f} | "
-                     f"{p.max():+.2f}{'' if ok else ' (unstable)'} | {q.max():+.2f} |")
+        lines.append(f"| {actuator.stiffness * factor:g} | {rms(p, q):.2f} | {rms(p, rigid):.2f} | "
+                     f"{rms(q, rigid):.2f} | {p.max():+.2f}{'' if ok else ' (unstable)'} | {q.max():+.2f} |")
     lines.append(f"\nRigid limit (quasi-static, 10^7 N/m): {fmt(rigid[::2])} at dphi_2 = 0, 0.1, ..., 0.9.")
 
     lines += ["", "## Invariants (ideal sensor, no noise)", "",
@@ -245,7 +246,8 @@ def main() -> None:
               f"({peak:+.2f} mm/cycle); hold: mean true Ubar over steps 50-100 over that peak. The protocol row "
               "says how many cycles are run after each phase change before the 2-cycle measurement starts "
               "(`discard_cycles`).", "",
-              "| backend | sensor | discard_cycles | median steps to reach | runs reaching by step 60 | hold | target |",
+              "| backend | sensor | discard_cycles | median steps to reach | runs reaching by step 60 | hold "
+              "| target |",
               "|---|---|---|---|---|---|---|"]
     default_lp = LearnerParams()
     protocols = sorted({default_lp.discard_cycles, 0, 1})

@@ -10,11 +10,11 @@ physics (the quasi-static model for a chain; targets chain-3 <= 1 s, chain-20 <=
 loads the compiled solvers from numba's cache.
 
 For each shape and sensor (ideal, optical) it times one full run (``morphbench.experiment.run``: pressures, bellows
-forces, sensors, learners, records), then, in the same process, the bare ``stepSimulation`` loop of a world with the same bodies, timestep and
-number of ticks (no forces, no sensing). The overhead ratio is run time / bare stepping time. Targets on one core:
-chain-3 in <= 10 s, chain-20 in <= 60 s, overhead <= 1.2. The call floor is bare stepping plus the three PyBullet
-calls per body and tick that explicit link forces cannot do without (a pose read, a force, a torque), over bare
-stepping: no run with such links can have a lower overhead ratio.
+forces, sensors, learners, records), then, in the same process, the bare ``stepSimulation`` loop of a world with the
+same bodies, timestep and number of ticks (no forces, no sensing). The overhead ratio is run time / bare stepping
+time. Targets on one core: chain-3 in <= 10 s, chain-20 in <= 60 s, overhead <= 1.2. The call floor is bare stepping
+plus the three PyBullet calls per body and tick that explicit link forces cannot do without (a pose read, a force, a
+torque), over bare stepping: no run with such links can have a lower overhead ratio.
 """
 
 from __future__ import annotations
@@ -81,9 +81,11 @@ def main() -> None:
     parser.add_argument("--compare", metavar="TREE", help="a checkout of an earlier commit to time side by side")
     parser.add_argument("shapes", nargs="*", default=["shapes/chain-3.toml", "shapes/chain-20.toml"])
     args = parser.parse_args()
-    print(f"# {time.strftime('%Y-%m-%d')} {platform.machine()} {platform.processor() or ''} python {platform.python_version()}")
+    print(f"# {time.strftime('%Y-%m-%d')} {platform.machine()} {platform.processor() or ''} "
+          f"python {platform.python_version()}")
     print("| shape | sensor | learning steps | simulated s | PyBullet fast wall s | bare stepping s | overhead ratio | "
-          "call floor ratio | default wall s |" + (" earlier commit (its default) wall s | default now / earlier |" if args.compare else ""))
+          "call floor ratio | default wall s |"
+          + (" earlier commit (its default) wall s | default now / earlier |" if args.compare else ""))
     print("|---|---|---|---|---|---|---|---|---|" + ("---|---|" if args.compare else ""))
     run_time(args.shapes[0], 2, "ideal")  # load the compiled solvers once
     for path in args.shapes:

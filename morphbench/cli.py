@@ -51,7 +51,8 @@ def _parser() -> argparse.ArgumentParser:
                      help="a morphology file (shapes/chain-3.toml) or a run configuration (examples/s6-damage.toml)")
     # Options default to None: given ones override the file, the others leave it as it is.
     run.add_argument("--learner", help="thermal, flaky, random (no learning) or a plug-in package.module:Class")
-    run.add_argument("--steps", type=option_type(STEPS), help="learning steps after the initial measurement (default 100)")
+    run.add_argument("--steps", type=option_type(STEPS),
+                     help="learning steps after the initial measurement (default 100)")
     learner, sensor = LearnerParams(), SensorParams()
     run.add_argument("--seed", type=option_type(SEED), help="run seed (default 0)")
     run.add_argument("--temperature", type=field_option(LearnerParams, "temperature"),
@@ -116,9 +117,9 @@ def _warnings_unless_failed(command):
 
 def _add_physics(parser: argparse.ArgumentParser, default: str | None) -> None:
     parser.add_argument("--physics", choices=PHYSICS_PRESET.values, default=default,
-                        help="physics: default (quasistatic on the ground, fast for stacks), fast (PyBullet), reference "
-                             "(PyBullet, finer) or quasistatic (springs and friction without inertia, exact; one layer "
-                             "on the ground)")
+                        help="physics: default (quasistatic on the ground, fast for stacks), fast (PyBullet), "
+                             "reference (PyBullet, finer) or quasistatic (springs and friction without inertia, exact; "
+                             "one layer on the ground)")
 
 
 def _run_dir(out: str, overwrite: bool) -> Path:

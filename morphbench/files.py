@@ -77,7 +77,8 @@ def replace_directory(path: str | os.PathLike, write: Callable[[Path], object]) 
     one: whatever happens, ``path`` holds the old directory (or nothing, if there was none) or the new one complete,
     never a mix. The swap is one atomic exchange where the system has it (Linux), else two renames with Ctrl-C held
     off in between; Ctrl-C before it leaves ``path`` as it was. A killed process leaves at most a hidden
-    ``.NAME.tmp-PID`` directory beside ``path`` (or, killed between the two renames, the old one as ``.NAME.old-PID``)."""
+    ``.NAME.tmp-PID`` directory beside ``path`` (or, killed between the two renames, the old one as
+    ``.NAME.old-PID``)."""
     given, path = Path(path), Path(os.path.abspath(path))
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
@@ -181,4 +182,5 @@ def read_toml_with_text(path: Path, what: str) -> tuple[dict[str, Any], str]:
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(path, "(syntax)", f"valid TOML ({exc})") from None
     except RecursionError:  # tomllib descends once per level of nested arrays and inline tables
-        raise ConfigError(path, "(syntax)", "TOML nested less deeply (arrays or inline tables thousands deep)") from None
+        raise ConfigError(path, "(syntax)",
+                          "TOML nested less deeply (arrays or inline tables thousands deep)") from None

@@ -75,7 +75,8 @@ class Range:
 
 def _number(value: float) -> str:
     """A bound as a message shows it: whole numbers in full (2**63 - 1, not 9.22337e+18), others with %g."""
-    return str(int(value)) if float(value).is_integer() and abs(value) < 1e16 or isinstance(value, int) else f"{value:g}"
+    return (str(int(value)) if float(value).is_integer() and abs(value) < 1e16 or isinstance(value, int)
+            else f"{value:g}")
 
 
 @dataclass(frozen=True)
@@ -307,7 +308,8 @@ class ActuatorParams:
     """N, the largest force the bellows exerts along its axis."""
     shear_stiffness: float = param(100.0, between(1e-3, 1e5), "N/m")
     """N/m, stiffness of a link against its two bodies sliding past each other across its axis (every link, passive
-    ones too). A bellows is soft across as well as along; stiffer links need smaller PyBullet steps (docs/fidelity.md)."""
+    ones too). A bellows is soft across as well as along; stiffer links need smaller PyBullet steps
+    (docs/fidelity.md)."""
     shear_damping: float = param(0.3, between(1e-6, 1e3), "N s/m")
     """N s/m, damping of that shear motion (PyBullet only: the quasi-static model has no rates)."""
     bending_stiffness: float = param(0.1, between(1e-6, 100), "N m/rad")
@@ -369,7 +371,8 @@ REFERENCE_PHYSICS = PhysicsParams(backend="pybullet", timestep=1 / 240, solver_i
 QUASISTATIC_PHYSICS = PhysicsParams(backend="quasistatic", timestep=1 / 200)
 """The inertia-free limit of the same assembly: the oracle of the PyBullet world, and a fast backend for chains."""
 
-PHYSICS_PRESETS = {"default": DEFAULT_PHYSICS, "fast": FAST_PHYSICS, "reference": REFERENCE_PHYSICS, "quasistatic": QUASISTATIC_PHYSICS}
+PHYSICS_PRESETS = {"default": DEFAULT_PHYSICS, "fast": FAST_PHYSICS, "reference": REFERENCE_PHYSICS,
+                   "quasistatic": QUASISTATIC_PHYSICS}
 PHYSICS_PRESET = Choices(tuple(PHYSICS_PRESETS))
 """a physics preset by name (a run configuration's [physics] preset, a suite's physics, --physics)."""
 
@@ -463,8 +466,8 @@ class OpticalParams:
     Scaled to what the simulation affords: a real mouse sensor takes thousands of frames a second of pixels of about
     0.05 mm. Here 8 frames a second of 1.5 mm pixels keep the sensor's cost under a tenth of the physics' while the
     fastest units (up to about 10 mm per frame in long chains) still move only a few pixels between frames, the
-    regime a mouse sensor works in. Finer pixels lower the error in mm but need a proportionally higher frame rate (units
-    would move more pixels per frame), and the cost grows with the frame rate.
+    regime a mouse sensor works in. Finer pixels lower the error in mm but need a proportionally higher frame rate
+    (units would move more pixels per frame), and the cost grows with the frame rate.
     """
 
     frame_rate: float = param(8.0, between(0, 1e4, low_inclusive=False), "Hz")

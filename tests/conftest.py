@@ -45,7 +45,8 @@ def pytest_collection_modifyitems(items):
 
 
 def chain(units: int, **sections) -> Shape:
-    """A chain of ``units`` active units and a dummy; ``sections``: more tables of a morphology file (unit, actuator)."""
+    """A chain of ``units`` active units and a dummy; ``sections``: more tables of a morphology file (unit,
+    actuator)."""
     return shape_from_table({"assembly": {"generator": "chain", "units": units, "dummy": True}, **sections},
                             source="test")
 

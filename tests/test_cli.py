@@ -158,7 +158,8 @@ def test_plugin_learner_runs_end_to_end(tmp_path: Path, capsys, monkeypatch):
 
 def test_scan_two_units(tmp_path: Path, capsys):
     out = tmp_path / "scan"
-    code, stdout, err = run_cli(capsys, "scan", CHAIN2, "--resolution", "4", "--cycles", "1", "--out", str(out), "--quiet")
+    code, stdout, err = run_cli(capsys, "scan", CHAIN2, "--resolution", "4", "--cycles", "1", "--out", str(out),
+                                "--quiet")
     assert code == 0, err
     assert "max Ubar" in stdout
     assert {p.name for p in out.iterdir()} == {"scan.csv", "scan.png"}

@@ -68,7 +68,8 @@ def test_friction_field_makes_the_same_gait_faster_on_some_stretches_than_on_oth
         return np.diff(x) * 1000 / 2
 
     uniform = step_velocities(EnvironmentParams())
-    field = step_velocities(EnvironmentParams(friction_field=FrictionFieldParams(amplitude=0.4, correlation_length=0.05)))
+    field = step_velocities(EnvironmentParams(
+        friction_field=FrictionFieldParams(amplitude=0.4, correlation_length=0.05)))
     assert field.std() > 2 * uniform.std(), (field.std(), uniform.std())
     assert field.max() - field.min() > 2.0
 

@@ -1,4 +1,5 @@
-"""Events as objects: parsed from their tables, written back as the same tables, applied to a world and the run state."""
+"""Events as objects: parsed from their tables, written back as the same tables, applied to a world and the run
+state."""
 
 import dataclasses
 

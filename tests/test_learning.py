@@ -296,8 +296,8 @@ def docstring_example():
     return textwrap.dedent("\n".join(block))
 
 
-@pytest.mark.parametrize("spec, cls", [("thermal", ThermalLearner), ("FLAKY", FlakyLearner), (" Thermal ", ThermalLearner),
-                                       ("random", RandomLearner)])
+@pytest.mark.parametrize("spec, cls", [("thermal", ThermalLearner), ("FLAKY", FlakyLearner),
+                                       (" Thermal ", ThermalLearner), ("random", RandomLearner)])
 def test_builtin_learners_by_name(spec, cls):
     assert load_learner_class(spec) is cls
 

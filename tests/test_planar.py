@@ -50,7 +50,8 @@ def test_a_chain_moves_as_the_exact_chain_solver_says(units):
 
 
 def mirrored(shape):
-    bodies = tuple(dataclasses.replace(b, position=(b.position[0], -b.position[1], b.position[2])) for b in shape.bodies)
+    bodies = tuple(dataclasses.replace(b, position=(b.position[0], -b.position[1], b.position[2]))
+                   for b in shape.bodies)
     return dataclasses.replace(shape, bodies=bodies)
 
 

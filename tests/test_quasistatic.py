@@ -116,7 +116,8 @@ def test_the_two_unit_curve_converges_as_the_tick_shrinks():
 
 @pytest.mark.parametrize("phase", [0.0, 0.3, 0.7])
 def test_a_unit_and_a_dummy_alone_do_not_travel(phase):
-    assert abs(velocity_at(chain(1), [phase], physics=QUASISTATIC_PHYSICS, cycles=4)[0]) < 1e-4  # the pressure transient, no more
+    # the pressure transient, no more
+    assert abs(velocity_at(chain(1), [phase], physics=QUASISTATIC_PHYSICS, cycles=4)[0]) < 1e-4
 
 
 def test_equal_friction_gives_an_exactly_antisymmetric_curve():

@@ -65,7 +65,8 @@ def test_overwrite_replaces_the_whole_run(tmp_path: Path, capsys):
 
 
 @pytest.mark.parametrize("setup, expected", [
-    (lambda out: (out.mkdir(), (out / "notes.txt").write_text("mine")), "a new or empty directory (it holds notes.txt)"),
+    (lambda out: (out.mkdir(), (out / "notes.txt").write_text("mine")),
+     "a new or empty directory (it holds notes.txt)"),
     (lambda out: out.write_text("a file"), "a directory (this is a file)"),
 ])
 def test_out_that_cannot_be_used_is_refused_before_simulating(tmp_path: Path, capsys, setup, expected):

@@ -83,7 +83,8 @@ def test_chain_6_cut_is_two_halves():
     shape = load_shape(SHAPES_DIR / "chain-6-cut.toml")
     front, rear = components(shape)
     assert front == [0, 1, 2] and rear == [3, 4, 5, 6]
-    assert [(l.front, l.rear, l.unit) for l in shape.links] == [(0, 1, 0), (1, 2, 1), (3, 4, 3), (4, 5, 4), (5, 6, 5)]
+    assert [(link.front, link.rear, link.unit) for link in shape.links] == [
+        (0, 1, 0), (1, 2, 1), (3, 4, 3), (4, 5, 4), (5, 6, 5)]
 
 
 def test_chain_3_capsules_units_are_capsules():
@@ -142,13 +143,13 @@ def test_grid_and_lattice_counts(tmp_path: Path, layers: int, rows: int, columns
     assert sum(link.unit is not None for link in shape.links) == bellows
     assert is_connected(shape)
     # links in order: bellows (by unit), then along y, then along z; front at the larger coordinate
-    axes = [int(np.argmax(np.abs(np.subtract(shape.bodies[l.front].position, shape.bodies[l.rear].position))))
-            for l in shape.links]
+    axes = [int(np.argmax(np.abs(np.subtract(shape.bodies[link.front].position, shape.bodies[link.rear].position))))
+            for link in shape.links]
     assert axes == [0] * bellows + [1] * across + [2] * up
     for link in shape.links:
         d = np.subtract(shape.bodies[link.front].position, shape.bodies[link.rear].position)
         assert d.max() > 0 and np.isclose(d.max(), PITCH[int(np.argmax(d))])
-    assert [l.unit for l in shape.links[:bellows]] == sorted(l.unit for l in shape.links[:bellows])
+    assert [link.unit for link in shape.links[:bellows]] == sorted(link.unit for link in shape.links[:bellows])
     # unit order: layer by layer (z up), row by row (y down from 0), front to back (x down from 0)
     sites = [lattice_site(shape, b) for b in shape.units]
     assert sites == sorted(sites, key=lambda s: (s[2], -s[1], -s[0]))
@@ -170,7 +171,7 @@ def test_layers_sit_on_each_other(tmp_path: Path):
 def test_grid_rows_are_joined_by_passive_links(tmp_path: Path):
     shape = load_shape(write(tmp_path, lattice_text("grid", {"rows": 2, "columns": 2}, True)))
     # bodies: row 1 = units 1, 2, dummy; row 2 = units 3, 4, dummy
-    assert [(l.front, l.rear, l.unit) for l in shape.links] == [
+    assert [(link.front, link.rear, link.unit) for link in shape.links] == [
         (0, 1, 0), (1, 2, 1), (3, 4, 3), (4, 5, 4), (0, 3, None), (1, 4, None), (2, 5, None)]
 
 
@@ -199,7 +200,7 @@ def test_custom_places_front_and_rear(tmp_path: Path):
     shape = load_shape(write(tmp_path, text))
     assert shape.units == (0, 1, 2)
     # the front is the body at the larger coordinate along the link's axis, whatever the order of `between`
-    assert [(l.front, l.rear, l.unit) for l in shape.links] == [(1, 0, 0), (2, 1, 1), (3, 2, None)]
+    assert [(link.front, link.rear, link.unit) for link in shape.links] == [(1, 0, 0), (2, 1, 1), (3, 2, None)]
     assert shape.bodies[3].position == pytest.approx((PITCH[0], PITCH[1], UNIT.height / 2 + PITCH[2]))
 
 
@@ -219,7 +220,7 @@ def test_custom_per_unit_overrides_and_defaults(tmp_path: Path):
     shape = load_shape(write(tmp_path, text))
     assert [(b.mass, b.friction, b.mesh) for b in shape.bodies] == [
         (0.04, 0.3, "cylinder"), (0.07, UNIT.friction, "sphere"), (0.2, 0.9, "box")]
-    assert [l.stroke for l in shape.links] == [0.005, None]
+    assert [link.stroke for link in shape.links] == [0.005, None]
 
 
 def test_heading_is_normalised(tmp_path: Path):
@@ -243,7 +244,8 @@ def test_transforms_in_a_file(tmp_path: Path):
     plain = load_shape(write(tmp_path, base))
     both = load_shape(write(tmp_path, base + '[transform]\nshuffle = {seed = 5}\ncut = {plane = "y", at = -0.025}\n'))
     assert len(components(both)) == 2 and both.n_units == 6
-    assert both.links == tuple(l for l in shuffle(plain, 5).links if l.unit is not None)  # only the rungs crossed y
+    # only the rungs crossed y
+    assert both.links == tuple(link for link in shuffle(plain, 5).links if link.unit is not None)
     several = load_shape(write(tmp_path, base + "[transform]\ncut = {link = [1, 5]}\n"))
     assert len(several.links) == len(plain.links) - 2 and several.links[0] == plain.links[1]
 
@@ -283,8 +285,10 @@ BAD = [
     ("float-at", CUSTOM_HEAD + "[[units]]\nat = [0.5, 0, 0]\n", "units[0].at", "a lattice site [i, j, k]"),
     ("long-at", CUSTOM_HEAD + "[[units]]\nat = [0, 0, 0, 0]\n", "units[0].at", "a lattice site [i, j, k]"),
     ("bool-dummy", CUSTOM_HEAD + "[[units]]\nat = [0, 0, 0]\ndummy = 1\n", "units[0].dummy", "true or false"),
-    ("negative-mass", CUSTOM_HEAD + "[[units]]\nat = [0, 0, 0]\nmass = -1\n", "units[0].mass", "a number in [0.001, 10] (kg)"),
-    ("negative-friction", CUSTOM_HEAD + "[[units]]\nat = [0, 0, 0]\nfriction = -1\n", "units[0].friction", "a number in [0, 10]"),
+    ("negative-mass", CUSTOM_HEAD + "[[units]]\nat = [0, 0, 0]\nmass = -1\n", "units[0].mass",
+     "a number in [0.001, 10] (kg)"),
+    ("negative-friction", CUSTOM_HEAD + "[[units]]\nat = [0, 0, 0]\nfriction = -1\n", "units[0].friction",
+     "a number in [0, 10]"),
     ("overlap", CUSTOM_HEAD + units_text((0, 0, 0), (-1, 0, 0), (0, 0, 0)) + links_text((1, 2, 1)),
      "units[2].at", "a lattice site of its own (units[0]"),
     ("only-dummies", CUSTOM_HEAD + units_text((0, 0, 0), dummies=(1,)), "units", "without dummy = true"),
@@ -319,7 +323,8 @@ BAD = [
     ("transform-not-table", "transform = 3\n" + CHAIN, "transform", "a table"),
     ("shuffle-negative-seed", CHAIN + "[transform]\nshuffle = {seed = -1}\n", "transform.shuffle.seed",
      "an integer in [0, 9223372036854775807]"),
-    ("shuffle-no-seed", CHAIN + "[transform]\nshuffle = {}\n", "transform.shuffle.seed", "an integer in [0, 9223372036854775807]"),
+    ("shuffle-no-seed", CHAIN + "[transform]\nshuffle = {}\n", "transform.shuffle.seed",
+     "an integer in [0, 9223372036854775807]"),
     ("shuffle-bad-key", CHAIN + "[transform]\nshuffle = {seed = 1, times = 2}\n", "transform.shuffle.times",
      "one of the known keys seed"),
     ("cut-link-0", CHAIN + "[transform]\ncut = {link = 0}\n", "transform.cut.link", "a link number in [1, 3]"),
@@ -374,8 +379,8 @@ def test_export_glb_has_one_geometry_per_body_and_link(tmp_path: Path, name: str
     assert len(scene.geometry) == len(shape.bodies) + len(shape.links)
     names = set(scene.geometry)
     assert set(body_names(shape)) <= names
-    assert sum(n.startswith("bellows-") for n in names) == sum(l.unit is not None for l in shape.links)
-    assert sum(n.startswith("link-") for n in names) == sum(l.unit is None for l in shape.links)
+    assert sum(n.startswith("bellows-") for n in names) == sum(link.unit is not None for link in shape.links)
+    assert sum(n.startswith("link-") for n in names) == sum(link.unit is None for link in shape.links)
     for body, body_name in zip(shape.bodies, body_names(shape)):  # each body where it is, at its size
         geometry = scene.geometry[body_name]
         transform = scene.graph.get(body_name)[0]

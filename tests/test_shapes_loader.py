@@ -23,7 +23,8 @@ from morphbench.shapes.loader import MAX_UNITS
 
 from conftest import SHAPES_DIR, assert_config_error, write
 
-SHIPPED = sorted(p for p in SHAPES_DIR.glob("chain-*.toml") if p.stem.removeprefix("chain-").isdigit())  # the plain chains; the rest: test_shapes_library.py
+# the plain chains; the rest: test_shapes_library.py
+SHIPPED = sorted(p for p in SHAPES_DIR.glob("chain-*.toml") if p.stem.removeprefix("chain-").isdigit())
 ASSEMBLY = '[assembly]\ngenerator = "chain"\nunits = 2\n'
 
 
@@ -52,7 +53,8 @@ def test_shipped_shape_loads(path: Path):
     xs = [body.position[0] for body in shape.bodies]
     assert xs == sorted(xs, reverse=True)
     assert [body.dummy for body in shape.bodies] == [False] * n_units + [True] * has_dummy
-    assert [(link.front, link.rear, link.unit) for link in shape.links] == [(i, i + 1, i) for i in range(len(shape.links))]
+    assert [(link.front, link.rear, link.unit) for link in shape.links] == [
+        (i, i + 1, i) for i in range(len(shape.links))]
 
 
 @pytest.mark.parametrize("name, n_units", [("chain-2", 2), ("chain-3", 3), ("chain-7", 7), ("chain-20", 20)])
@@ -72,7 +74,8 @@ def test_left_out_tables_take_the_defaults_of_params(tmp_path: Path):
     assert shape.actuator == ActuatorParams()
     assert len(shape.bodies) == 3  # dummy defaults to true
     for body in shape.bodies[:2]:
-        assert (body.size, body.mass, body.friction) == ((unit.length, unit.width, unit.height), unit.mass, unit.friction)
+        assert (body.size, body.mass, body.friction) == (
+            (unit.length, unit.width, unit.height), unit.mass, unit.friction)
     assert (shape.bodies[2].mass, shape.bodies[2].friction, shape.bodies[2].dummy) == (dummy.mass, dummy.friction, True)
     pitch = unit.length + ActuatorParams().rest_gap
     assert [b.position for b in shape.bodies] == [(-i * pitch, 0.0, unit.height / 2) for i in range(3)]
@@ -125,7 +128,8 @@ def test_utf8_file_loads_whatever_the_locale(tmp_path: Path):
     path = write(tmp_path, 'description = "µm café"\n' + ASSEMBLY)
     env = {**os.environ, "LC_ALL": "C", "LANG": "C", "PYTHONUTF8": "0", "PYTHONCOERCECLOCALE": "0"}
     code = "import sys; from morphbench.shapes import load_shape; print(ascii(load_shape(sys.argv[1]).description))"
-    result = subprocess.run([sys.executable, "-c", code, str(path)], env=env, capture_output=True, text=True, timeout=60)
+    result = subprocess.run([sys.executable, "-c", code, str(path)], env=env, capture_output=True, text=True,
+                            timeout=60)
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == ascii("µm café")
 
@@ -390,7 +394,8 @@ def malformed_tables(draw) -> tuple[dict, str]:
         section, key = draw(st.sampled_from(NUMBER_FIELDS))
         _set(table, f"{section}.{key}", draw(_out_of_range(SECTIONS[section], key)))
         return table, f"{section}.{key}"
-    _set(table, "assembly.units", draw(st.integers(max_value=0) | st.integers(min_value=MAX_UNITS + 1, max_value=2**63 - 1)))
+    _set(table, "assembly.units",
+         draw(st.integers(max_value=0) | st.integers(min_value=MAX_UNITS + 1, max_value=2**63 - 1)))
     return table, "assembly.units"
 
 

@@ -22,7 +22,8 @@ UNIT, DUMMY, ACTUATOR = UnitParams(), DummyParams(), ActuatorParams()
 def tagged(bodies, links, name="shape") -> Shape:
     """A shape whose bodies each have their own mass (and units their own stroke), so identities can be followed."""
     bodies = tuple(dataclasses.replace(b, mass=0.05 + 0.001 * i) for i, b in enumerate(bodies))
-    links = tuple(dataclasses.replace(l, stroke=None if l.unit is None else 0.01 + 0.0001 * l.unit) for l in links)
+    links = tuple(dataclasses.replace(link, stroke=None if link.unit is None else 0.01 + 0.0001 * link.unit)
+                  for link in links)
     return Shape(name=name, source=f"<{name}>", bodies=bodies, links=links, actuator=ACTUATOR)
 
 
@@ -56,7 +57,8 @@ def positions(shape: Shape, which=None) -> list[tuple]:
 def link_places(shape: Shape) -> set:
     """Each link by the places it joins and the place of the unit driving it."""
     place = [b.position for b in shape.bodies]
-    return {(place[l.front], place[l.rear], None if l.unit is None else place[l.unit]) for l in shape.links}
+    return {(place[link.front], place[link.rear], None if link.unit is None else place[link.unit])
+            for link in shape.links}
 
 
 # --- shuffle --------------------------------------------------------------------------------------------------------

@@ -51,7 +51,8 @@ def cmd_bench(args) -> int:
 
     suite = load_suite(args.suite)
     client = connect(args.scheduler) if args.scheduler else None  # a bad address fails before anything runs
-    executor = DaskExecutor(client) if client is not None else LocalExecutor(args.workers and min(args.workers, os.cpu_count() or 1))
+    executor = (DaskExecutor(client) if client is not None
+                else LocalExecutor(args.workers and min(args.workers, os.cpu_count() or 1)))
     try:
         outcome = run_suite(suite, args.out, executor, resume=args.resume, retry_failed=args.retry_failed,
                             progress=not args.quiet)

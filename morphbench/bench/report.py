@@ -116,7 +116,8 @@ def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.Data
         runs = f"{row.runs - row.failed - row.missing}" + (f" ({row.failed} failed)" if row.failed else "") \
             + (f" ({row.missing} missing)" if row.missing else "")
         cells = [_fmt(row[c]) for c in varying] + [
-            runs, _pm(row.final_ubar, row.final_ubar_std), "no plateau" if not row.plateau and np.isfinite(row.u_eq) else _fmt(row.u_eq, 2),
+            runs, _pm(row.final_ubar, row.final_ubar_std),
+            "no plateau" if not row.plateau and np.isfinite(row.u_eq) else _fmt(row.u_eq, 2),
             _fmt(row.u_0, 2), _fmt(row.k_0, 1) if row.plateau else "-",
             _pm(row.steps_to_threshold, row.steps_to_threshold_std, 1),
             _fmt(row.reached_fraction, 2), _fmt(row.acceptance_final, 2), _fmt(row.learned_fraction, 2),

@@ -3,10 +3,12 @@
 | kind | fields | effect |
 |---|---|---|
 | friction | scale | every body's friction is its own times ``scale`` from now on (a friction drop: scale < 1) |
-| damage | unit, mode | unit ``unit`` (1 = front) is damaged: 'no-inflate', 'stuck' or 'dead' (see params.DAMAGE_MODES) |
+| damage | unit, mode | unit ``unit`` (1 = front) is damaged: 'no-inflate', 'stuck' or 'dead' (params.DAMAGE_MODES) |
 | shuffle | seed | the units are reordered by a seeded permutation; each keeps its learner, memory, noise and damage |
-| cut | link | link ``link`` (1-based, in the shape's order; for a chain, unit k's bellows) is cut; each piece is scored on its own |
+| cut | link | link ``link`` (1-based, see below) is cut; each piece is scored on its own |
 | noise | sigma | measurement noise becomes ``sigma`` mm/cycle |
+
+Links are numbered from 1 in the shape's order (for a chain, link k is unit k's bellows).
 
 One frozen dataclass per kind: ``parse`` reads its fields from a TOML table, ``apply(world, state)`` is what the run
 loop does at its step, ``describe()`` is recorded in ``steps.parquet`` (column ``event``) at the step it happened.
@@ -185,10 +187,12 @@ def parse_events(items: Any, source: str, n_units: int, n_links: int) -> tuple[E
         allowed = {"step", "kind", *cls.kind_fields()}
         for key in item:
             if key not in allowed:
-                raise ConfigError(source, f"{where}.{key}", f"one of the keys of a {kind} event: {', '.join(sorted(allowed))}")
+                raise ConfigError(source, f"{where}.{key}",
+                                  f"one of the keys of a {kind} event: {', '.join(sorted(allowed))}")
         for key in allowed:
             if key not in item:
-                raise ConfigError(source, f"{where}.{key}", f"a value (a {kind} event needs {', '.join(sorted(allowed))})")
+                raise ConfigError(source, f"{where}.{key}",
+                                  f"a value (a {kind} event needs {', '.join(sorted(allowed))})")
         step = require_integer(item["step"], source, f"{where}.step", 1, expected="a learning step >= 1")
         events.append(cls(step=step, **cls.parse(item, source, where, n_units, n_links)))
     return tuple(sorted(events, key=lambda e: e.step))

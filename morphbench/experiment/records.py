@@ -86,7 +86,8 @@ class RunRecords:
         """Per step and unit (see the module docstring)."""
         if not self.n_steps:
             return pd.DataFrame(columns=UNIT_COLUMNS)
-        table = pd.DataFrame({name: np.concatenate(values) for name, values in self._units.items()}, columns=UNIT_COLUMNS)
+        table = pd.DataFrame({name: np.concatenate(values) for name, values in self._units.items()},
+                             columns=UNIT_COLUMNS)
         return table.astype({"step": "int64", "unit": "int64", "position": "int64", "piece": "int64", "accepted": bool})
 
     def steps(self) -> pd.DataFrame:

@@ -328,8 +328,9 @@ class _Validity:
                 what = f"was launched ({1000 * rise[body]:.4g} mm above its rest height, more than its own height " \
                        f"of {1000 * self.height[body]:.4g} mm)"
             elif speed[body] > self.max_speed:
+                reach = 1000 * self.max_speed / MAX_REACH_PER_CYCLE
                 what = f"moved {1000 * speed[body]:.4g} mm/cycle over {cycles:g} cycles, faster than its bellows can " \
-                       f"push it (at most {MAX_REACH_PER_CYCLE:g} x {1000 * self.max_speed / MAX_REACH_PER_CYCLE:.4g} mm " \
+                       f"push it (at most {MAX_REACH_PER_CYCLE:g} x {reach:.4g} mm " \
                        f"per cycle: the bellows' stroke, at most a body's size)"
             else:
                 continue

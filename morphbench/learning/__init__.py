@@ -5,4 +5,5 @@ from morphbench.learning.baselines import RandomLearner
 from morphbench.learning.metropolis import FlakyLearner, ThermalLearner
 from morphbench.learning.plugins import LEARNERS, load_learner_class, make_learners, unit_rng
 
-__all__ = ["FlakyLearner", "LEARNERS", "Learner", "RandomLearner", "ThermalLearner", "load_learner_class", "make_learners", "unit_rng"]
+__all__ = ["FlakyLearner", "LEARNERS", "Learner", "RandomLearner", "ThermalLearner", "load_learner_class",
+           "make_learners", "unit_rng"]

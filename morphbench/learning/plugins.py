@@ -1,7 +1,8 @@
 """Choosing a learner by name (``--learner``), per-unit random streams, and building one learner per unit.
 
-``--learner`` takes ``thermal``, ``flaky`` or ``random`` (the no-learning baseline; any case), or a plug-in class as ``package.module:ClassName``; the
-module is imported with ``importlib``, so its directory must be on ``sys.path`` (e.g. via ``PYTHONPATH``).
+``--learner`` takes ``thermal``, ``flaky`` or ``random`` (the no-learning baseline; any case), or a plug-in class as
+``package.module:ClassName``; the module is imported with ``importlib``, so its directory must be on ``sys.path``
+(e.g. via ``PYTHONPATH``).
 
 The plug-in interface. A plug-in need not subclass ``morphbench.learning.Learner``, but it must:
 
@@ -102,7 +103,8 @@ def load_learner_class(spec: str) -> type[Learner]:
     except AttributeError:
         raise fail(f"module {module_name!r} to define a class {class_name!r} (it has no such attribute)") from None
     except Exception as exc:  # a module-level __getattr__ may raise anything
-        raise fail(f"module {module_name!r} to define a class {class_name!r} (it raised {describe(exc, where=False)})") from None
+        raise fail(f"module {module_name!r} to define a class {class_name!r} "
+                   f"(it raised {describe(exc, where=False)})") from None
     if not inspect.isclass(cls):
         raise fail(f"{class_name!r} to be a class (it is a {type(cls).__name__})")
     missing_methods = [name for name in _METHODS if not callable(getattr(cls, name, None))]

@@ -30,7 +30,8 @@ class Bellows:
                                    dtype=int)
         """for each link, the index (in unit order) of the unit whose pump drives it; -1 for a passive link."""
         self._actuated = self.link_units >= 0
-        self._strokes = np.array([shape.actuator.stroke if link.stroke is None else link.stroke for link in shape.links])
+        self._strokes = np.array([shape.actuator.stroke if link.stroke is None else link.stroke
+                                  for link in shape.links])
         """m, each bellows' stroke (a unit may override the shape's)."""
         self._empty_pitch = np.array([np.linalg.norm(rest[f] - rest[r]) for f, r in self._links])
         """m, centre-to-centre distance of each link's two bodies when its bellows is empty."""
@@ -73,7 +74,8 @@ class Bellows:
         return trajectory * (self._actuated if pumps else 0.0)
 
     def _rest_lengths(self, trajectory: np.ndarray) -> np.ndarray:
-        """(n_ticks, n_links) rest length of each bellows: a damaged one cannot inflate, a stuck one keeps its length."""
+        """(n_ticks, n_links) rest length of each bellows: a damaged one cannot inflate, a stuck one keeps its
+        length."""
         extends = np.array([u >= 0 and self.damage[u] not in ("no-inflate", "dead") for u in self.link_units],
                            dtype=float)
         rest = self._empty_pitch + self._strokes * trajectory * extends

@@ -43,7 +43,8 @@ class FrictionField:
     def __call__(self, x, y) -> np.ndarray:
         """f at the given points (m); arrays of equal shape."""
         x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-        arg = (2 * np.pi / self.params.period) * (np.multiply.outer(x, self._k[:, 0]) + np.multiply.outer(y, self._k[:, 1]))
+        arg = (2 * np.pi / self.params.period) * (np.multiply.outer(x, self._k[:, 0])
+                                                  + np.multiply.outer(y, self._k[:, 1]))
         return self._scale * np.cos(arg + self._theta) @ self._amplitude
 
     def friction(self, mu0, x, y) -> np.ndarray:

@@ -89,9 +89,9 @@ class PlanarWorld(Bellows):
     def relax_ticks(self, lengths, limits) -> None:
         """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``
         (n_ticks, n_bodies) each body's friction limit (N)."""
-        total, failed = _solve_ticks(self.q, self._last, np.asarray(lengths, dtype=float), np.asarray(limits, dtype=float),
-                     self._front, self._rear, self._plane_axes, self.intact, self._stiffness,
-                     self.shape.actuator.max_force, self._rho)
+        total, failed = _solve_ticks(self.q, self._last, np.asarray(lengths, dtype=float),
+                                     np.asarray(limits, dtype=float), self._front, self._rear, self._plane_axes,
+                                     self.intact, self._stiffness, self.shape.actuator.max_force, self._rho)
         self.newton_steps += total
         self.unconverged_ticks += failed
 
@@ -285,11 +285,11 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
                 for j in range(3):
                     # D^-1 r / gamma, with D^-1 = (I - n n^T) / (1 - t) + n n^T
                     rhs[3 * c + j] -= ((r[j] - radial * nrm[j]) / (1.0 - t) + radial * nrm[j]) / gamma
-                    for l in range(3):
-                        h = -nrm[j] * nrm[l]
-                        if j == l:
+                    for col in range(3):
+                        h = -nrm[j] * nrm[col]
+                        if j == col:
                             h += 1.0
-                        M[3 * c + j, 3 * c + l] += tangential * h
+                        M[3 * c + j, 3 * c + col] += tangential * h
             step = _solve_spd(M, rhs)
             for a in range(m):
                 dz[dofs[a]] = step[a]

@@ -55,7 +55,8 @@ class World(Bellows):
             enableConeFriction=int(physics.cone_friction),
             physicsClientId=c,
         )
-        self.ground = pb.createMultiBody(0, pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=c), physicsClientId=c)
+        self.ground = pb.createMultiBody(0, pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=c),
+                                         physicsClientId=c)
         pb.changeDynamics(self.ground, -1, lateralFriction=GROUND_FRICTION, physicsClientId=c)
         self.bodies = [self._add_body(body, position.tolist()) for body, position in zip(shape.bodies, self._rest)]
         n_links = len(shape.links)

@@ -17,8 +17,8 @@ from morphbench.shapes.model import Body, Link, Shape
 from morphbench.shapes.transforms import cut, cut_apart, pieces, remove_links, rotate, shuffle
 
 __all__ = [
-    "Body", "CustomLink", "CustomUnit", "GENERATORS", "Link", "Shape", "body_mesh", "chain", "check_shape", "components",
-    "custom", "cut", "cut_apart", "draw", "export_scene", "grid", "is_connected", "lattice", "load_shape",
-    "mass_properties", "params_from_dict", "params_from_table", "pieces", "read_toml", "remove_links", "rotate", "scene",
-    "shape_from_table", "shuffle", "site_position",
+    "Body", "CustomLink", "CustomUnit", "GENERATORS", "Link", "Shape", "body_mesh", "chain", "check_shape",
+    "components", "custom", "cut", "cut_apart", "draw", "export_scene", "grid", "is_connected", "lattice", "load_shape",
+    "mass_properties", "params_from_dict", "params_from_table", "pieces", "read_toml", "remove_links", "rotate",
+    "scene", "shape_from_table", "shuffle", "site_position",
 ]
