@@ -173,3 +173,21 @@ def test_a_mesh_path_longer_than_the_file_system_takes(tmp_path, capsys):
     path.write_text(f'[assembly]\ngenerator = "chain"\nunits = 2\n[unit]\nmesh = "{"x" * 300}.obj"\n', encoding="utf-8")
     error = _one_line_error(capsys, "shapes", "check", str(path))
     assert f"{path}: unit.mesh: expected an existing mesh file" in error
+
+
+@pytest.mark.parametrize("kind", ['["friction"]', '{ a = 1 }', "3"])
+def test_an_event_kind_that_is_not_a_string(tmp_path, capsys, kind):
+    path = tmp_path / "run.toml"
+    path.write_text(f'shape = "{CHAIN2}"\n[[events]]\nstep = 1\nkind = {kind}\n', encoding="utf-8")
+    error = _one_line_error(capsys, "run", str(path), "--quiet", "--out", str(tmp_path / "out"))
+    assert f"{path}: events[0].kind: expected one of friction, damage" in error
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("plane", ["1", '"xy"', "[1]"])
+def test_a_cut_plane_that_is_not_an_axis(tmp_path, capsys, plane):
+    path = tmp_path / "cut.toml"
+    path.write_text(f'[assembly]\ngenerator = "chain"\nunits = 3\n[transform]\ncut = {{plane = {plane}, at = 0.1}}\n',
+                    encoding="utf-8")
+    error = _one_line_error(capsys, "shapes", "check", str(path))
+    assert f"{path}: transform.cut.plane: expected one of x, y, z" in error

@@ -181,7 +181,7 @@ def parse_events(items: Any, source: str, n_units: int, n_links: int) -> tuple[E
         if not isinstance(item, dict):
             raise ConfigError(source, where, "a table with step, kind and the kind's fields", item)
         kind = item.get("kind")
-        if kind not in EVENT_KINDS:
+        if not isinstance(kind, str) or kind not in EVENT_KINDS:  # an array or table is not a kind (nor hashable)
             raise ConfigError(source, f"{where}.kind", f"one of {', '.join(EVENT_KINDS)}", kind)
         cls = EVENT_KINDS[kind]
         allowed = {"step", "kind", *cls.kind_fields()}

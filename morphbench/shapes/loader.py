@@ -323,7 +323,7 @@ def _transform(transform: dict[str, Any], shape: Shape, source: str) -> Shape:
             shape, _ = cut_apart(shape, link=[v - 1 for v in numbers])
         else:
             plane, at = spec["plane"], spec.get("at")
-            if plane not in PLANES or not isinstance(plane, str):
+            if not isinstance(plane, str) or plane not in PLANES:
                 raise ConfigError(source, "transform.cut.plane", "one of x, y, z", plane)
             if isinstance(at, bool) or not isinstance(at, (int, float)) or not math.isfinite(at):
                 raise ConfigError(source, "transform.cut.at", "a finite number (m, where the plane crosses its axis)",

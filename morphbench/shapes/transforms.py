@@ -27,7 +27,7 @@ from morphbench.shapes.checks import components
 from morphbench.shapes.model import Link, Shape
 from morphbench.streams import SHUFFLE_STREAM
 
-PLANES = "xyz"
+PLANES = ("x", "y", "z")
 
 
 def shuffle_order(n_units: int, seed: int) -> np.ndarray:
