@@ -18,8 +18,21 @@ from morphbench import __version__
 from morphbench.bench.cli import add_bench_commands
 from morphbench.errors import ConfigError, PhysicsError
 from morphbench.files import check_path
-from morphbench.params import (COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, SENSOR_KINDS, STEPS, EnvironmentParams,
-                               LearnerParams, SensorParams, field_option, option_type)
+from morphbench.params import (
+    COUNT,
+    DEFAULT_SEED,
+    DEFAULT_STEPS,
+    PHYSICS_PRESET,
+    PHYSICS_PRESETS,
+    SEED,
+    SENSOR_KINDS,
+    STEPS,
+    EnvironmentParams,
+    LearnerParams,
+    SensorParams,
+    field_option,
+    option_type,
+)
 from morphbench.render.options import add_render_arguments, video_params_from_args
 from morphbench.shapes.cli import add_shapes_commands
 from morphbench.shapes.loader import resolve_shape_path
@@ -52,9 +65,9 @@ def _parser() -> argparse.ArgumentParser:
     # Options default to None: given ones override the file, the others leave it as it is.
     run.add_argument("--learner", help="thermal, flaky, random (no learning) or a plug-in package.module:Class")
     run.add_argument("--steps", type=option_type(STEPS),
-                     help="learning steps after the initial measurement (default 100)")
+                     help=f"learning steps after the initial measurement (default {DEFAULT_STEPS})")
     learner, sensor = LearnerParams(), SensorParams()
-    run.add_argument("--seed", type=option_type(SEED), help="run seed (default 0)")
+    run.add_argument("--seed", type=option_type(SEED), help=f"run seed (default {DEFAULT_SEED})")
     run.add_argument("--temperature", type=field_option(LearnerParams, "temperature"),
                      help=f"T in mm/cycle, 0 greedy, inf accepts every trial (default {learner.temperature:g})")
     run.add_argument("--step-size", type=field_option(LearnerParams, "step_size"),
@@ -63,7 +76,7 @@ def _parser() -> argparse.ArgumentParser:
                      help=f"n_act, actuation cycles per learning step (default {learner.cycles_per_step})")
     run.add_argument("--sensor", choices=SENSOR_KINDS, help=f"how units measure their motion (default {sensor.kind})")
     run.add_argument("--noise", type=field_option(EnvironmentParams, "noise"),
-                     help="Gaussian measurement noise, mm/cycle (default 0)")
+                     help=f"Gaussian measurement noise, mm/cycle (default {EnvironmentParams().noise:g})")
     _add_physics(run, default=None)
     run.add_argument("--out", help="output directory (default runs/NAME-LEARNER-seedS)")
     run.add_argument("--overwrite", action="store_true",

@@ -161,6 +161,10 @@ for."""
 SEED = between(0, 2**63 - 1, integer=True)
 """a seed (RunConfig.seed, a suite's seeds, --seed, ground, friction field and shuffle seeds): it is stored in int64
 columns (records, suite tables)."""
+DEFAULT_STEPS = 100
+"""learning steps of a run when nothing says otherwise (RunConfig.steps, --steps)."""
+DEFAULT_SEED = 0
+"""a run's seed when nothing says otherwise (RunConfig.seed, --seed)."""
 MAX_CYCLES_PER_STEP = 1000
 CYCLES = between(1, MAX_CYCLES_PER_STEP, integer=True)
 """actuation cycles measured per learning step (--cycles-per-step): at most 1000 (over half an hour of simulated time

@@ -22,6 +22,8 @@ from morphbench.learning.plugins import kept_phase, proposed_phase, update_accep
 from morphbench.experiment.events import Event, RunState, parse_events
 from morphbench.params import (
     DEFAULT_PHYSICS,
+    DEFAULT_SEED,
+    DEFAULT_STEPS,
     SENSOR_KINDS,
     EnvironmentParams,
     GroundParams,
@@ -51,9 +53,9 @@ class RunConfig:
     events: tuple[Event, ...] = ()
     """applied at the start of their learning step (morphbench.experiment.events)."""
     physics: PhysicsParams = DEFAULT_PHYSICS
-    steps: int = 100
+    steps: int = DEFAULT_STEPS
     """learning steps after the initial measurement (step 0)."""
-    seed: int = 0
+    seed: int = DEFAULT_SEED
 
     def __post_init__(self):
         check_run(self, self.shape.source)
