@@ -17,7 +17,7 @@ from pathlib import Path
 from morphbench import __version__
 from morphbench.bench.cli import add_bench_commands
 from morphbench.errors import ConfigError, PhysicsError
-from morphbench.files import check_path
+from morphbench.files import atomic_write, check_path
 from morphbench.params import (
     COUNT,
     DEFAULT_SEED,
@@ -269,7 +269,7 @@ def _cmd_scan(args) -> int:
         table = scan(shape, args.resolution, physics=PHYSICS_PRESETS[args.physics],
                      cycles=args.cycles or DEFAULT_CYCLES, samples=args.samples, seed=args.seed,
                      workers=min(args.workers, n_points, os.cpu_count() or 1), progress=bar.update)
-    table.to_csv(out / "scan.csv", index=False, float_format="%.6g")
+    atomic_write(out / "scan.csv", lambda tmp: table.to_csv(tmp, index=False, float_format="%.6g"))
     plots.scan_figure(table, out / "scan.png", title=f"{shape.name}: Ubar at fixed phases")
     best = table.loc[table.ubar.idxmax()]
     worst = table.loc[table.ubar.idxmin()]
