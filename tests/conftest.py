@@ -13,10 +13,16 @@ from pathlib import Path
 
 import pytest
 
+from morphbench import params as P
 from morphbench.bench import LocalExecutor, load_suite, run_suite
 from morphbench.cli import main
 from morphbench.errors import ConfigError
 from morphbench.shapes import Shape, load_shape, shape_from_table
+
+PARAMETER_CLASSES = [P.UnitParams, P.DummyParams, P.ActuatorParams, P.PhysicsParams, P.LearnerParams,
+                     P.FrictionFieldParams, P.EnvironmentParams, P.GroundParams, P.OpticalParams, P.SensorParams,
+                     P.VideoParams]
+"""every parameter dataclass: the checks that each field declares its range run over all of them."""
 
 ROOT = Path(__file__).resolve().parents[1]
 SHAPES_DIR = ROOT / "shapes"

@@ -17,12 +17,9 @@ from morphbench.cli import EXIT_BAD_INPUT
 from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig
 
-from conftest import ROOT, SHAPES_DIR, chain, run_cli
+from conftest import PARAMETER_CLASSES, ROOT, SHAPES_DIR, chain, run_cli
 
 CHAIN2 = str(SHAPES_DIR / "chain-2.toml")
-PARAMETER_CLASSES = [P.UnitParams, P.DummyParams, P.ActuatorParams, P.PhysicsParams, P.LearnerParams,
-                     P.FrictionFieldParams, P.EnvironmentParams, P.GroundParams, P.OpticalParams, P.SensorParams,
-                     P.VideoParams]
 
 
 @pytest.mark.parametrize("cls", PARAMETER_CLASSES, ids=lambda cls: cls.__name__)

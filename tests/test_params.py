@@ -17,10 +17,7 @@ from morphbench.experiment.config import load_run_config
 from morphbench.learning import ThermalLearner
 from morphbench.shapes import params_from_table
 
-ROOT = Path(__file__).resolve().parents[1]
-PARAMETER_CLASSES = [P.UnitParams, P.DummyParams, P.ActuatorParams, P.PhysicsParams, P.LearnerParams,
-                     P.FrictionFieldParams, P.EnvironmentParams, P.GroundParams, P.OpticalParams, P.SensorParams,
-                     P.VideoParams]
+from conftest import PARAMETER_CLASSES, ROOT
 
 
 @pytest.mark.parametrize("cls", PARAMETER_CLASSES, ids=lambda c: c.__name__)
