@@ -356,7 +356,7 @@ def options_case(choose: Chooser, pending: bool = True) -> Case:
                 argv.append("--bogus")  # keep the case bad: an option shapes does not have
         return Case("options", f"shapes {sub}", " ".join(argv), argv, extra=extra)
     if command == "report":
-        target = choose.choice([t for t in POSITIONAL_BAD if pending or t != "{dir}/file.txt"]
+        target = choose.choice([t for t in POSITIONAL_BAD if pending or t not in ("{dir}/file.txt", "{dir}/bad.toml")]
                                + ["{dir}/empty", "{dir}/garbage-results"])
         extra["garbage-results/runs.parquet"] = b"PAR1 not really"
         return Case("options", "report", f"report {target}", ["report", target], extra=extra)
