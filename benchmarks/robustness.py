@@ -1,4 +1,5 @@
-"""Robustness against malformed input: run tests/fuzzing.py's generators over many seeded cases, write docs/robustness.md.
+"""Robustness against malformed input: tests/fuzzing.py's generators over many seeded cases; writes
+docs/robustness.md.
 
     python benchmarks/robustness.py [--cases 300] [--seed 0] [--kinds shape,run,suite,options,plugin] [--out PATH]
 

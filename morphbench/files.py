@@ -133,11 +133,29 @@ def _interrupts_held():
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
+def is_file(path: str | os.PathLike) -> bool:
+    """Whether ``path`` names an existing file; False (not an OSError) for a name the file system cannot take."""
+    try:
+        return Path(path).is_file()
+    except (OSError, ValueError):  # a name longer than NAME_MAX, a NUL byte
+        return False
+
+
+def is_dir(path: str | os.PathLike) -> bool:
+    """Whether ``path`` names an existing directory; False for a name the file system cannot take."""
+    try:
+        return Path(path).is_dir()
+    except (OSError, ValueError):
+        return False
+
+
 def check_path(text: str, source: str, key: str | None = None, room: int = 0) -> Path:
     """``text`` as a Path if the file system can take it: no NUL byte, each name at most NAME_MAX (less ``room``
     characters for a temporary name made from it) and the whole at most PATH_MAX; else ConfigError naming ``source``
     (the option or file) and ``key`` (default: the path itself)."""
     key = text if key is None else key
+    if not text:
+        raise ConfigError(source, "''", "a path, not an empty string")
     if "\0" in text:
         raise ConfigError(source, key.replace("\0", "\\0"), "a path without a NUL byte")
     path = Path(text)

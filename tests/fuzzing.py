@@ -363,7 +363,8 @@ def options_case(choose: Chooser, pending: bool = True) -> Case:
     pool = OPTION_VALUES[command]
     base = {"run": ["run", CHAIN2, "--steps", "1", "--quiet", "--sensor", "ideal", "--out", "{out}"],
             "scan": ["scan", CHAIN2, "--resolution", "2", "--cycles", "1", "--quiet", "--out", "{out}"],
-            "bench": ["bench", "{dir}/tiny.toml", "--out", "{out}", "--quiet", "--no-report", "--workers", "1"]}[command]
+            "bench": ["bench", "{dir}/tiny.toml", "--out", "{out}", "--quiet", "--no-report",
+                      "--workers", "1"]}[command]
     if command == "bench":
         extra["tiny.toml"] = dump_toml(seed_documents("suite")[0][1]).encode()
     if choose.integer(0, 4) == 0:  # a bad positional argument instead of the file

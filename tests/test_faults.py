@@ -75,6 +75,7 @@ FAULTS = {
     "phase left a string": ("phase", "update", "self.phase = 'front'", "got 'front'"),
     "propose recurses": ("propose()", "propose", "recurse(0)", "RecursionError"),
     "update calls sys.exit": ("update(velocity)", "update", "sys.exit(3)", "SystemExit: 3"),
+    "propose raises GeneratorExit": ("propose()", "propose", "raise GeneratorExit", "GeneratorExit"),
 }
 
 

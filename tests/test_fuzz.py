@@ -1,9 +1,8 @@
 """Malformed input, generated (tests/fuzzing.py): every refused input exits 2 with one line on stderr, no traceback
 and nothing written; every accepted one exits 0 with its output complete.
 
-One test per input kind and mutation family, so that a family waiting for a fix on another branch is one xfail
-(strict=False: the lead removes the mark once the fix is merged) and the others keep guarding. Cases run in-process
-through ``morphbench.cli.main`` (``fuzzing.run_case``); a few run in a subprocess, where PyBullet's banner shows.
+One test per input kind and mutation family, so that a failure names the family. Cases run in-process through
+``morphbench.cli.main`` (``fuzzing.run_case``); a few run in a subprocess, where PyBullet's banner would show.
 """
 
 from __future__ import annotations
@@ -14,21 +13,13 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import HealthCheck, given, settings
 
 import fuzzing
 from conftest import ROOT, SHAPES_DIR
 
 FAST = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 SUITE = settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])  # a pool per suite
-# A family expected to fail until a fix lands elsewhere: no shrinking, whose minimal case the reason already names.
-PENDING = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow],
-                   phases=[Phase.explicit, Phase.reuse, Phase.generate])
-
-PENDING_PATHS = "pending on i-files: path checks (NUL bytes, over-long names) raise ValueError/OSError"
-PENDING_DEEP = "pending on i-files: deep TOML nesting raises RecursionError"
-PENDING_BOUNDS = "pending on i-files: upper/lower bounds in params.py"
-PENDING_BANNER = "pending on i-files: PyBullet's 'pybullet build time' banner is not suppressed"
 
 
 def check(case: fuzzing.Case) -> fuzzing.Outcome:
@@ -91,15 +82,13 @@ def test_shape_files(case):
     check(case)
 
 
-@pytest.mark.xfail(reason=PENDING_PATHS, strict=False)
-@PENDING
+@FAST
 @given(fuzzing.cases("shape", ("path",)))
 def test_shape_files_with_bad_paths(case):
     check(case)
 
 
-@pytest.mark.xfail(reason=PENDING_DEEP, strict=False)
-@PENDING
+@FAST
 @given(fuzzing.cases("shape", ("deep",)))
 def test_shape_files_nested_deep(case):
     check(case)
@@ -119,15 +108,13 @@ def test_run_configurations_with_absurd_numbers(case):
     check(case)
 
 
-@pytest.mark.xfail(reason=PENDING_PATHS, strict=False)
-@PENDING
+@FAST
 @given(fuzzing.cases("run", ("path",)))
 def test_run_configurations_with_bad_paths(case):
     check(case)
 
 
-@pytest.mark.xfail(reason=PENDING_DEEP, strict=False)
-@PENDING
+@FAST
 @given(fuzzing.cases("run", ("deep",)))
 def test_run_configurations_nested_deep(case):
     check(case)
@@ -141,15 +128,13 @@ def test_suites(case):
     check(case)
 
 
-@pytest.mark.xfail(reason=PENDING_PATHS, strict=False)
-@PENDING
+@FAST
 @given(fuzzing.cases("suite", ("path",)))
 def test_suites_with_bad_paths(case):
     check(case)
 
 
-@pytest.mark.xfail(reason=PENDING_DEEP, strict=False)
-@PENDING
+@FAST
 @given(fuzzing.cases("suite", ("deep",)))
 def test_suites_nested_deep(case):
     check(case)
@@ -163,9 +148,7 @@ def test_command_line_options(case):
     check(case)
 
 
-@pytest.mark.xfail(reason=f"{PENDING_PATHS}; {PENDING_BOUNDS} (--steps 2**62 runs for ever); "
-                           "'report FILE' raises NotADirectoryError", strict=False)
-@PENDING
+@FAST
 @given(fuzzing.cases("options"))
 def test_command_line_options_with_bad_paths(case):
     check(case)
@@ -203,8 +186,5 @@ def test_refused_in_a_subprocess(name, tmp_path):
     assert "Traceback" not in result.stderr
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]  # no runs/ in the working directory either
-    if any(fuzzing.is_banner(line) for line in lines):
-        assert len([line for line in lines if not fuzzing.is_banner(line)]) == 1, result.stderr
-        pytest.xfail(PENDING_BANNER)  # the one error line is right; the banner line should not be there
     assert len(lines) == 1, result.stderr
     assert fuzzing.is_error_line(lines[0]), lines[0]

@@ -48,7 +48,9 @@ def cmd_bench(args) -> int:
     from morphbench.bench.report import build_report
     from morphbench.bench.runner import run_suite
     from morphbench.bench.suite import load_suite
+    from morphbench.files import check_path
 
+    check_path(args.out, "--out")  # before the suite is read: an empty or impossible name writes nothing
     suite = load_suite(args.suite)
     client = connect(args.scheduler) if args.scheduler else None  # a bad address fails before anything runs
     executor = (DaskExecutor(client) if client is not None

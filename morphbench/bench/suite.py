@@ -86,7 +86,7 @@ from morphbench.experiment.config import RUN_KEYS, run_config_from_table
 from morphbench.experiment.events import Event
 from morphbench.experiment.run import RunConfig
 from morphbench.experiment.scan import DEFAULT_CYCLES, DEFAULT_DISCARD, scan_phases
-from morphbench.files import read_toml_with_text
+from morphbench.files import is_file, read_toml_with_text
 from morphbench.shapes import Shape, load_shape, params_from_table
 
 ALIASES = ("shapes", "learners", "learner_params", "noise", "environments", "seeds")
@@ -285,7 +285,7 @@ class _Context:
         if not isinstance(value, str) or not value:
             raise ConfigError(self.source, key, "the path of a morphology file (a string)", value)
         path = self.base / value  # an absolute value stays itself
-        if not path.is_file():
+        if not is_file(path):
             raise ConfigError(self.source, key, f"an existing morphology file (there is no file {path})", value)
         return self.load(path)
 

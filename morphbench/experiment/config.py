@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from morphbench.errors import ConfigError
+from morphbench.files import is_file
 from morphbench.experiment.events import parse_events
 from morphbench.experiment.run import RunConfig
 from morphbench.learning import load_learner_class
@@ -82,7 +83,7 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path,
     if "\0" in table["shape"]:
         raise ConfigError(source, "shape", "a path without a NUL byte", table["shape"])
     path = base / table["shape"]
-    if not path.is_file():
+    if not is_file(path):
         raise ConfigError(source, "shape", f"an existing morphology file (there is no file {path})", table["shape"])
     shape = load(path)
     learner_table = dict(_table(table, "learner", source))

@@ -95,7 +95,7 @@ def load_learner_class(spec: str) -> type[Learner]:
         if missing == module_name or module_name.startswith(missing + "."):
             raise fail(f"an importable module {module_name!r} ({exc}; is its directory on sys.path?)") from None
         raise fail(f"module {module_name!r} to import cleanly (it raised {describe(exc, where=False)})") from None
-    except (Exception, SystemExit) as exc:  # SystemExit too: a plug-in calling sys.exit() must not end the run
+    except (Exception, SystemExit, GeneratorExit) as exc:  # sys.exit() in a plug-in must not end the run
         raise fail(f"module {module_name!r} to import cleanly (it raised {describe(exc, where=False)})") from None
 
     try:
@@ -144,7 +144,7 @@ def make_learners(cls: type, params: LearnerParams, seed: int, n_units: int) -> 
             learner = cls(params, unit_rng(seed, unit))
         except ConfigError:
             raise  # already names its source and key (e.g. bad LearnerParams)
-        except (Exception, SystemExit) as exc:
+        except (Exception, SystemExit, GeneratorExit) as exc:
             raise PluginError(name, "__init__(params, rng)", f"of unit {unit + 1} to construct a learner "
                               f"{cls.__name__}(params, rng) (constructing it raised {describe(exc)})") from None
         _check_phase(learner, name)
@@ -197,7 +197,7 @@ def call_learner(learner: object, method: str, unit: int, step: int, *args: Any)
     PluginError naming the plug-in, the method, the unit and the step."""
     try:
         return getattr(learner, method)(*args)
-    except (Exception, SystemExit) as exc:  # SystemExit too: a plug-in calling sys.exit() must not end the run
+    except (Exception, SystemExit, GeneratorExit) as exc:  # sys.exit() in a plug-in must not end the run
         signature = "update(velocity)" if method == "update" else f"{method}()"
         raise PluginError(learner_spec(type(learner)), signature,
                           f"of unit {unit + 1} at learning step {step} to return (it raised {describe(exc)})") from None

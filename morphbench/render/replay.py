@@ -17,6 +17,7 @@ import pandas as pd
 
 from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig, run
+from morphbench.files import is_dir, is_file
 from morphbench.params import VideoParams
 from morphbench.render.video import VideoRecorder, check_output_path, check_video_params
 
@@ -33,11 +34,11 @@ def load_run(run_dir: str | os.PathLike) -> tuple[RunConfig, pd.DataFrame]:
     run directory written by ``morphbench run``."""
     path = Path(run_dir)
     expected = "a run directory written by `morphbench run` (summary.json and steps.parquet)"
-    if not path.is_dir():
+    if not is_dir(path):
         raise ConfigError(str(run_dir), "(directory)", expected, "no such directory")
     summary_file, steps_file = path / "summary.json", path / "steps.parquet"
     for file in (summary_file, steps_file):
-        if not file.is_file():
+        if not is_file(file):
             raise ConfigError(str(run_dir), file.name, expected, "missing")
     try:
         summary = json.loads(summary_file.read_text(encoding="utf-8"))

@@ -21,6 +21,7 @@ import cv2
 import numpy as np
 
 from morphbench.errors import ConfigError
+from morphbench.files import is_file
 from morphbench.params import GroundParams, check_params
 
 MAX_TEXTURE_PIXELS = 64_000_000
@@ -128,7 +129,7 @@ def _procedural(params: GroundParams) -> np.ndarray:
 
 def _load(params: GroundParams, source: str) -> np.ndarray:
     path = Path(params.image)
-    if not path.is_file():
+    if not is_file(path):
         raise ConfigError(source, "image", "an existing image file (PNG, JPEG, BMP, TIFF, ...)", params.image)
     image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
     if image is None:

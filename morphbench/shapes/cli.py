@@ -19,6 +19,7 @@ from pathlib import Path
 
 from morphbench import data_path
 from morphbench.errors import ConfigError
+from morphbench.files import check_path, is_dir
 from morphbench.shapes.checks import components
 from morphbench.shapes.export import SCENE_SUFFIXES
 from morphbench.shapes.loader import load_shape, resolve_shape_path
@@ -67,7 +68,7 @@ def _counts(shape) -> str:
 
 def cmd_list(args) -> int:
     directory = Path(args.directory) if args.directory is not None else default_directory()
-    if not directory.is_dir():
+    if not is_dir(directory):
         raise ConfigError("shapes list", "DIRECTORY", "a directory of morphology files (.toml)", str(directory))
     files = sorted(directory.glob("*.toml"))
     if not files:
@@ -106,7 +107,7 @@ def _write(file: str, flag: str, output: str, suffixes, writer) -> int:
     out = Path(output)
     if out.suffix.lower() not in suffixes:
         raise ConfigError(flag, output, f"a file name ending in {', '.join(suffixes)}")
-    if out.is_dir():
+    if is_dir(check_path(output, flag)):
         raise ConfigError(flag, output, "a file name (this is a directory)")
     shape = load_shape(resolve_shape_path(file))
     try:

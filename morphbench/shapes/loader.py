@@ -104,7 +104,7 @@ from pathlib import Path
 from typing import Any
 
 from morphbench.errors import ConfigError
-from morphbench.files import read_toml
+from morphbench.files import is_dir, is_file, read_toml
 from morphbench.params import SEED, ActuatorParams, DummyParams, UnitParams, check, check_rule, expected
 from morphbench.shapes.checks import check_shape
 from morphbench.shapes.export import PRIMITIVES, check_mesh
@@ -396,7 +396,7 @@ def resolve_shape_path(name: str | Path) -> Path:
     directory) that is not a file here, which names a shape of the shipped library (``chain-2``); a bare name that is
     in neither is a ConfigError listing the library."""
     path = Path(name)
-    if path.exists() or path.suffix == ".toml" or len(path.parts) != 1:
+    if is_file(path) or is_dir(path) or path.suffix == ".toml" or len(path.parts) != 1:
         return path
     from morphbench import data_path
 

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from morphbench.failures import describe
+from morphbench.files import is_file
 from morphbench.shapes.model import Body
 
 PRIMITIVES = ("box", "capsule", "cylinder", "sphere")
@@ -43,11 +44,7 @@ def check_mesh(mesh: str, base: str | Path = ".") -> str:
         raise ValueError(f"'' (a box), one of {', '.join(PRIMITIVES)} or a mesh file ({', '.join(MESH_SUFFIXES)})")
     if not path.is_absolute():
         path = Path(base) / path
-    try:
-        exists = path.is_file()
-    except (OSError, ValueError):  # a name longer than the file system takes, a NUL byte
-        exists = False
-    if not exists:
+    if not is_file(path):
         raise ValueError(f"an existing mesh file (relative paths start at the morphology file's directory: {path})")
     _unit_mesh(str(path))  # raises ValueError if it is not a closed surface
     return str(path)
