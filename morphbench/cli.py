@@ -194,10 +194,13 @@ def _cmd_run(args) -> int:
 
     from morphbench import plots
     from morphbench.experiment import load_run_config, run
+    from morphbench.experiment.config import check_events_happen
     from morphbench.learning import load_learner_class
     from morphbench.render import VideoRecorder
 
     config = _with_options(load_run_config(resolve_shape_path(args.config)), args)
+    if args.steps is not None:
+        check_events_happen(config, "--steps", str(args.steps))
     load_learner_class(config.learner)  # fail on a bad plug-in before simulating
     name = Path(args.config).stem
     learner_name = config.learner.rsplit(":", 1)[-1].lower()

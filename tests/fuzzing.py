@@ -153,6 +153,8 @@ def seed_documents(kind: str) -> list[tuple[str, dict]]:
         for p in sorted(EXAMPLES_DIR.glob("*.toml")):
             doc = tomllib.loads(p.read_text())
             _absolute(doc, "shape", p.parent)
+            for event in doc.get("events", []):
+                event["step"] = 1  # cases run 1 step (--steps 1), and an event after the last step is refused
             seeds.append((p.name, doc))
         return seeds
     if kind == "suite":

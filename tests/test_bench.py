@@ -510,7 +510,7 @@ def test_a_suite_with_environments_events_and_a_scan_environment_runs_and_record
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteps = 10\n[[experiment.events]]\nstep = 2\nkind = "noise"',
      "experiment[x].events[0].sigma", "a value"),
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nsteps = [10, 5]\n[[experiment.events]]\nstep = 8\n'
-     'kind = "noise"\nsigma = 1', "experiment[x].events[0].step", "<= the experiment's steps (5)"),
+     'kind = "noise"\nsigma = 1', "experiment[x].events[0].step", "<= the run's steps (5)"),
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nevents = {{step = 2}}', "experiment[x].events",
      "an array of tables"),
     ('[[scan]]\nshape = "{chain2}"\nenvironment = {{noise = 0.5}}', "scan[1].environment.noise", "no noise"),

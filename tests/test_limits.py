@@ -188,3 +188,17 @@ def test_a_cut_plane_that_is_not_an_axis(tmp_path, capsys, plane):
                     encoding="utf-8")
     error = _one_line_error(capsys, "shapes", "check", str(path))
     assert f"{path}: transform.cut.plane: expected one of x, y, z" in error
+
+
+def test_an_event_after_the_last_step_is_refused_in_a_run_file_and_after_steps(tmp_path, capsys):
+    """As in suites: an event that would never happen is an error, not silently dropped."""
+    path = tmp_path / "late.toml"
+    path.write_text(f'shape = "{CHAIN2}"\nsteps = 60\n[[events]]\nstep = 50\nkind = "noise"\nsigma = 0.5\n',
+                    encoding="utf-8")
+    out = tmp_path / "out"
+    error = _one_line_error(capsys, "run", str(path), "--steps", "5", "--quiet", "--out", str(out))
+    assert error == "morphbench: error: --steps: 5: expected at least 50, the step of events[0], got 5"
+    path.write_text(path.read_text().replace("steps = 60", "steps = 40"), encoding="utf-8")
+    error = _one_line_error(capsys, "run", str(path), "--quiet", "--out", str(out))
+    assert f"{path}: events[0].step: expected a learning step <= the run's steps (40)" in error
+    assert not out.exists()

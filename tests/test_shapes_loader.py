@@ -411,7 +411,8 @@ def test_random_malformed_tables_raise_config_error(case: tuple[dict, str]):
     message = str(info.value)
     assert str(path) in message
     assert info.value.key == dotted
-    assert f": {dotted}: expected " in message
+    shown = dotted.replace("\r", "\\r").replace("\n", "\\n")  # a message is one line, whatever a key holds
+    assert f": {shown}: expected " in message
 
 
 @FAST

@@ -407,11 +407,6 @@ def _expand_experiment(table: dict, names: dict[str, str], name: str, descriptio
                 _name(label, src, "environment.name")
             config = run_config_from_table({**combo, "environment": environment, "events": events}, src, ctx.base,
                                            load=ctx.load)
-            for index, event in enumerate(config.events):
-                if event.step > config.steps:
-                    raise ConfigError(src, f"events[{index}].step", f"a learning step <= the experiment's steps "
-                                                                     f"({config.steps}): a later event never happens",
-                                      event.step)
         except ConfigError as exc:
             if exc.source != src:  # a morphology file's own error
                 raise

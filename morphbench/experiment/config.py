@@ -94,7 +94,7 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path,
         load_learner_class(learner)
     except ConfigError as exc:  # it names the spec as if given by --learner: name this file's key instead
         raise ConfigError(source, "learner.name", exc.expected, learner) from None
-    return RunConfig(
+    config = RunConfig(
         shape=shape,
         learner=learner,
         learner_params=params_from_table(LearnerParams, learner_table, source, "learner"),
@@ -105,6 +105,19 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path,
         steps=check_rule(STEPS, "", table.get("steps", RunConfig.steps), source, "steps"),
         seed=check_rule(SEED, "", table.get("seed", RunConfig.seed), source, "seed"),
     )
+    check_events_happen(config, source)
+    return config
+
+
+def check_events_happen(config: RunConfig, source: str, steps_key: str | None = None) -> None:
+    """ConfigError unless every event falls within the run's steps (a later one would silently never happen); it
+    names the event's step, or ``steps_key`` when the steps were set elsewhere (``--steps``)."""
+    for index, event in enumerate(config.events):
+        if event.step > config.steps:
+            raise ConfigError(source, steps_key or f"events[{index}].step",
+                              f"a learning step <= the run's steps ({config.steps}): a later event never happens"
+                              if steps_key is None else f"at least {event.step}, the step of events[{index}]",
+                              event.step if steps_key is None else config.steps)
 
 
 def physics_from_table(table: dict[str, Any], source: str, section: str) -> PhysicsParams:
