@@ -23,3 +23,6 @@ SHUFFLE_STREAM = 4
 
 OPTICAL_STREAM = 5
 """``[run seed, 5]``: the optical sensors' image noise (morphbench.experiment.run.make_sensor)."""
+
+CONTROLLER_STREAM = 6
+"""``[run seed, 6]``: a centralized controller's draws (morphbench.learning.controllers.controller_rng)."""

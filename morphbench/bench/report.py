@@ -10,7 +10,8 @@ interrupted bench, reporting the missing runs), computes ``curves.parquet`` and 
 - ``<experiment>-trajectories.png``: every run's centroid track on the ground, one colour per condition (when the
   runs recorded one: runs stored before steps.parquet had ``x_m`` are left out);
 and ``scan-<name>.png`` per scan (a curve for 2 units, a heat map for 3, a histogram beyond). ``DIR/report.md``
-holds the tables of metrics, the figures and the failed runs with their errors.
+holds the tables of metrics (a centralized controller's rows marked), the figures, a comparison of decentralized
+learners with centralized controllers when the suite has both, and the failed runs with their errors.
 """
 
 from __future__ import annotations
@@ -74,8 +75,10 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
         lines += [f"**{n_missing} runs have no results yet**: the bench was interrupted; run it again with the same "
                   "--out to finish.", ""]
 
+    central = set(runs.condition_id[runs.centralized == 1]) if "centralized" in runs else set()
     for experiment in plan["experiments"]:
-        lines += _experiment_section(experiment, metrics, curves, steps, figures)
+        lines += _experiment_section(experiment, metrics, curves, steps, figures, central)
+    lines += _decentralization_section(metrics, steps, central)
     if plan["scans"]:
         lines += ["## Scans", ""]
         lines += _scan_section(plan, scans, figures)
@@ -94,7 +97,7 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
 
 
 def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.DataFrame, steps: pd.DataFrame,
-                        figures: Path) -> list[str]:
+                        figures: Path, central: set[str]) -> list[str]:
     name = experiment["name"]
     lines = [f"## {name}", ""]
     if experiment.get("description"):
@@ -105,7 +108,8 @@ def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.Data
              if c not in varying]
     if len(mine):
         first = mine.iloc[0]
-        lines += ["Fixed: " + ", ".join(f"{c} = {_fmt(first[c])}" for c in fixed if c in mine) + ".", ""]
+        lines += ["Fixed: " + ", ".join(f"{c} = {_cell_value(first, c, central)}" for c in fixed if c in mine) + ".",
+                  ""]
     with_events = "recovery_step" in mine and bool(np.isfinite(mine.recovery_step.astype(float)).any())
     header = [*varying, "runs", "final Ubar", "U_eq", "U_0", "k_0", f"steps to {M.THRESHOLD:g} U_eq", "reached",
               "acceptance (end)", "of scan best", "U along heading", "turning rate (deg/cycle)"]
@@ -115,7 +119,7 @@ def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.Data
     for _, row in mine.iterrows():
         runs = f"{row.runs - row.failed - row.missing}" + (f" ({row.failed} failed)" if row.failed else "") \
             + (f" ({row.missing} missing)" if row.missing else "")
-        cells = [_fmt(row[c]) for c in varying] + [
+        cells = [_cell_value(row, c, central) for c in varying] + [
             runs, _pm(row.final_ubar, row.final_ubar_std),
             "no plateau" if not row.plateau and np.isfinite(row.u_eq) else _fmt(row.u_eq, 2),
             _fmt(row.u_0, 2), _fmt(row.k_0, 1) if row.plateau else "-",
@@ -144,6 +148,74 @@ def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.Data
                                        title=f"{name}: trajectories of the runs")
         lines += [f"![trajectories](figures/{path.name})", ""]
     return lines
+
+
+def _cell_value(row, column: str, central: set[str]) -> str:
+    """A condition's value in a table; a centralized controller's learner marked as such."""
+    text = _fmt(row[column])
+    return f"{text} (centralized)" if column == "learner" and row.condition_id in central else text
+
+
+COMPARED = ("shape", "events", "noise")
+"""What a condition of the decentralization comparison is: the learners compete within each."""
+
+
+def _decentralization_section(metrics: pd.DataFrame, steps: pd.DataFrame, central: set[str]) -> list[str]:
+    """Per (shape, events, noise), each learner's final Ubar, steps to 0.8 of the best found and recovery, and the
+    ratio of the best decentralized learner's final Ubar to the best centralized one's; nothing unless both ran."""
+    done = metrics[np.isfinite(metrics.final_ubar.astype(float))] if len(metrics) else metrics
+    if not len(done) or done.condition_id.isin(central).all() or not done.condition_id.isin(central).any():
+        return []
+    keys = [c for c in COMPARED if c in done]
+    lines = ["## Decentralized against centralized", "",
+             f"Per {', '.join(keys)}: final Ubar (true, mean +- std over seeds); steps to {M.THRESHOLD:g} of the best "
+             "found (the highest final Ubar of any learner there): first step a run reaches it, mean +- std over "
+             "the runs that do, and the fraction that do; steps to regain "
+             f"{M.RECOVERY_FRACTION:g} of Ubar before the first event. Ratio: the best decentralized learner's final "
+             "Ubar over the best centralized controller's ('-' unless the latter moves forward).", "",
+             "| " + " | ".join([*keys, "learner", "final Ubar", f"steps to {M.THRESHOLD:g} of best", "reached",
+                                f"steps to regain {M.RECOVERY_FRACTION:g}"]) + " |",
+             "|" + "---|" * (len(keys) + 5)]
+    ratios = []
+    for key, group in done.groupby(keys, sort=False):
+        best = float(group.final_ubar.max())
+        for _, row in group.iterrows():
+            runs = [g.sort_values("step") for _, g in steps[steps.condition_id == row.condition_id].groupby("run_id")]
+            reach = np.array([M.steps_to_reach(g.step.to_numpy(), g.ubar_true.to_numpy(), M.THRESHOLD * best)
+                              for g in runs]) if best > 0 else np.array([])
+            reached = reach[np.isfinite(reach)]
+            if not np.isfinite(row.recovery_step):
+                recovery = "-"
+            elif row.recovered_fraction == 0:
+                recovery = "never"
+            else:
+                recovery = _pm(row.recovery_steps, row.recovery_steps_std, 1)
+            reached_fraction = _fmt(len(reached) / len(reach), 2) if len(reach) else "-"
+            cells = [*(_fmt(v) for v in key), _cell_value(row, "learner", central),
+                     _pm(row.final_ubar, row.final_ubar_std), _pm(*_mean_std(reached), 1), reached_fraction, recovery]
+            lines.append("| " + " | ".join(cells) + " |")
+        is_central = group.condition_id.isin(central)
+        ratios.append((key, _best(group[~is_central]), _best(group[is_central])))
+    lines += ["", "| " + " | ".join([*keys, "best decentralized", "best centralized", "ratio"]) + " |",
+              "|" + "---|" * (len(keys) + 3)]
+    for key, (decentral, d_name), (centralized, c_name) in ratios:
+        ratio = decentral / centralized if centralized > 0 else math.nan
+        lines.append("| " + " | ".join([*(_fmt(v) for v in key), f"{_fmt(decentral)} ({d_name})",
+                                        f"{_fmt(centralized)} ({c_name})", _fmt(ratio, 2)]) + " |")
+    return lines + [""]
+
+
+def _best(rows: pd.DataFrame) -> tuple[float, str]:
+    """The highest final Ubar of ``rows`` and its learner (NaN and '-' without rows)."""
+    if not len(rows):
+        return math.nan, "-"
+    best = rows.loc[rows.final_ubar.astype(float).idxmax()]
+    return float(best.final_ubar), str(best.learner)
+
+
+def _mean_std(values: np.ndarray) -> tuple[float, float]:
+    return (float(np.mean(values)) if len(values) else math.nan,
+            float(np.std(values, ddof=1)) if len(values) > 1 else math.nan)
 
 
 def _scan_section(plan: dict, scans: pd.DataFrame, figures: Path) -> list[str]:

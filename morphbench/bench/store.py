@@ -8,8 +8,9 @@ Layout of ``DIR``::
     scans/<part_id>/     one finished part of a scan: points.parquet (dphi_2.., ubar), result.json
     runs.parquet         one row per run of the suite: run_id, condition_id, experiments, condition columns, seed,
                          status ('done' | 'failed' | 'missing'), error, final_ubar, final_ubar_true,
-                         mean_acceptance, sensor_error, final_u_heading, turning_rate_deg_per_cycle (NaN for a
-                         run stored before a summary value existed), wall_time_s
+                         mean_acceptance, sensor_error, final_u_heading, turning_rate_deg_per_cycle,
+                         centralized (1.0 for a centralized controller, 0.0 for per-unit learners; NaN, like every
+                         summary value, for a run not done or stored before the value existed), wall_time_s
     steps.parquet        every finished run's steps.parquet rows, with run_id, condition_id, condition columns, seed
                          (a run stored before a column existed has NaN in it)
     units.parquet        every finished run's units.parquet rows, with run_id
@@ -42,7 +43,7 @@ KIND_DIRS = {"run": "runs", "scan": "scans"}
 RESULT = "result.json"
 PLAN = "plan.json"
 SUMMARY_COLUMNS = ("final_ubar", "final_ubar_true", "mean_acceptance", "sensor_error", "final_u_heading",
-                   "turning_rate_deg_per_cycle")
+                   "turning_rate_deg_per_cycle", "centralized")
 
 
 class Store:

@@ -29,7 +29,7 @@ from morphbench.experiment.config import load_run_config
 from morphbench.experiment.records import RunRecords
 from morphbench.experiment.run import RunConfig, RunLoop, run_world
 from morphbench.learning.base import wrap_phase
-from morphbench.learning.plugins import as_phase, learner_spec, unit_rng
+from morphbench.learning.plugins import Decentralized, as_phase, learner_spec, unit_rng
 from morphbench.params import COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, PhysicsParams, check_rule
 from morphbench.shapes.loader import resolve_shape_path
 
@@ -102,7 +102,7 @@ class ParallelEnv(PettingZooParallelEnv):
         self.records = RunRecords(self.config)
         self._started = time.perf_counter()
         self._world = run_world(self.config)
-        self._loop = RunLoop(self.config, self._learners, self._world, None)
+        self._loop = RunLoop(self.config, Decentralized(self._learners), self._world, None)
         self._loop.warm_up()
         self.learning_step = 0
         """the learning step last run (0: the initial measurement, at reset)."""

@@ -21,7 +21,8 @@ A run directory holds:
   of ``heading_rad``.
 - ``pieces.parquet``: one row per learning step and piece: ``step``, ``piece``, ``n_units``, ``ubar``, ``ubar_true``:
   after a cut, each piece is a robot of its own and is scored on its own.
-- ``summary.json``: the full configuration, seed, final Ubar, mean acceptance, sensor error, wall time, the final
+- ``summary.json``: the full configuration, seed, ``centralized`` (whether one controller ran every unit:
+  morphbench.learning.controllers), final Ubar, mean acceptance, sensor error, wall time, the final
   ``u_heading`` (``final_u_heading``, over the same final steps as final Ubar) and the turning rate
   (``turning_rate_deg_per_cycle``: degrees per pump cycle over the learning steps).
 Read them with ``pandas.read_parquet``. The directory is written whole (``RunRecords.write``): a killed or interrupted
@@ -39,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from morphbench.files import atomic_write, replace_directory  # noqa: F401 (bench.store takes atomic_write from here)
+from morphbench.learning.controllers import is_centralized
 
 UNIT_COLUMNS = ("step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true", "accepted",
                 "x_m", "y_m", "heading_rad")
@@ -141,6 +143,7 @@ class RunRecords:
         return {
             "config": self.config.to_dict(),
             "seed": self.config.seed,
+            "centralized": is_centralized(self.config.learner),
             "n_units": self.config.shape.n_units,
             "steps": int(learning.step.max()) if len(learning) else 0,
             "final_ubar": final_value(steps.step, steps.ubar),

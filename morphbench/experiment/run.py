@@ -1,4 +1,5 @@
-"""The run loop: one world, one sensor bank, one learner per unit, learning steps of ``cycles_per_step`` cycles.
+"""The run loop: one world, one sensor bank, one controller (one learner per unit, or a centralized baseline),
+learning steps of ``cycles_per_step`` cycles.
 
 The CLI, the scans and the tests all go through ``run`` (and ``measure`` for fixed phases).
 """
@@ -17,8 +18,7 @@ import numpy as np
 
 from morphbench.errors import ConfigError, PhysicsError
 from morphbench.experiment.records import RunRecords
-from morphbench.learning import load_learner_class, make_learners
-from morphbench.learning.plugins import kept_phase, proposed_phase, update_accepted
+from morphbench.learning import Controller, load_learner_class, make_controller
 from morphbench.experiment.events import Event, RunState, parse_events
 from morphbench.params import (
     DEFAULT_PHYSICS,
@@ -46,7 +46,8 @@ class RunConfig:
 
     shape: Shape
     learner: str = "thermal"
-    """'thermal', 'flaky' or a plug-in 'package.module:Class'."""
+    """'thermal', 'flaky', 'random', a centralized 'cmaes', 'random-search', 'hill-climber', or a plug-in
+    'package.module:Class'."""
     learner_params: LearnerParams = field(default_factory=LearnerParams)
     sensor: SensorParams = field(default_factory=SensorParams)
     environment: EnvironmentParams = field(default_factory=EnvironmentParams)
@@ -157,12 +158,12 @@ def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = 
     A learner that raises or returns no usable phase stops the run with a PluginError; physics that leaves the
     model's validity (see ``_Validity``) stops it with a PhysicsError.
     """
-    learners = make_learners(load_learner_class(config.learner), config.learner_params, config.seed,
-                             config.shape.n_units)
+    controller = make_controller(load_learner_class(config.learner), config.learner_params, config.seed,
+                                 config.shape.n_units)
     records = RunRecords(config)
     started = time.perf_counter()
     with run_world(config) as world:
-        loop = RunLoop(config, learners, world, on_tick)
+        loop = RunLoop(config, controller, world, on_tick)
         loop.warm_up()
         for step in range(config.steps + 1):
             loop.step(step, records)
@@ -178,13 +179,14 @@ def run_world(config: RunConfig) -> World:
 
 
 class RunLoop:
-    """One run's world, sensors, learners and what events change; each method is a phase of the run.
+    """One run's world, sensors, controller and what events change; each method is a phase of the run.
 
     ``run`` drives it, and so do the environments of morphbench.envs, one ``step`` at a time after ``warm_up``."""
 
-    def __init__(self, config: RunConfig, learners: list, world: World, on_tick: Callable[[World], None] | None):
+    def __init__(self, config: RunConfig, controller: Controller, world: World,
+                 on_tick: Callable[[World], None] | None):
         n = config.shape.n_units
-        self.config, self.learners, self.world, self.on_tick = config, learners, world, on_tick
+        self.config, self.controller, self.world, self.on_tick = config, controller, world, on_tick
         self.noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u]))
                            for u in range(n)]
         self.state = RunState.initial(n, config.environment.noise)
@@ -195,12 +197,12 @@ class RunLoop:
         # The ground truth is sampled on the sensor's ticks, so poses are read once; an ideal sensor is its own truth.
         self.truth = None if isinstance(self.sensor, IdealSensor) else IdealSensor(n, self.sensor.sample_period)
         self.observe = (lambda k: on_tick(world)) if on_tick is not None else None
-        self.kept = np.array([kept_phase(learner, u, 0) for u, learner in enumerate(learners)], dtype=float)
-        """each unit's kept phase, read from its learner once per step and wrapped into [0, 1)."""
+        self.kept = controller.initial()
+        """each unit's kept phase in [0, 1), from the controller once per step."""
         self.validity = _Validity(config.shape, world)
 
     def warm_up(self) -> None:
-        """Start every pump at its learner's initial phase and let the gait settle."""
+        """Start every pump at its initial kept phase and let the gait settle."""
         self.world.set_phases(self.kept)
         self._advance(self.config.learner_params.warmup_cycles)
 
@@ -222,11 +224,9 @@ class RunLoop:
         return applied
 
     def propose(self, step: int) -> np.ndarray:
-        """Each living unit's trial phase, set in the world by position (a dead unit's learner stops: it keeps its
-        phase and gets no measurement)."""
-        alive = self.state.alive()
-        tried = np.array([proposed_phase(learner, u, step) if alive[u] else self.kept[u]
-                          for u, learner in enumerate(self.learners)], dtype=float)
+        """Each unit's trial phase from the controller, set in the world by position (a dead unit keeps its phase
+        and gets no measurement)."""
+        tried = self.controller.propose(step, self.state.alive())
         self.world.set_phases(tried[self.state.order])
         return tried
 
@@ -252,11 +252,9 @@ class RunLoop:
         self.validity.check(step, self.state.order)
 
     def update(self, u_measured: np.ndarray, step: int) -> np.ndarray:
-        """Each living learner gets its own unit's measurement and nothing else; whether it accepted its trial."""
-        alive = self.state.alive()
-        accepted = np.array([update_accepted(learner, u, step, float(u_measured[u])) if alive[u] else False
-                             for u, learner in enumerate(self.learners)])
-        self.kept = np.array([kept_phase(learner, u, step) for u, learner in enumerate(self.learners)], dtype=float)
+        """The controller gets the measurements (a per-unit learner its own unit's only); whether each unit accepted
+        its trial."""
+        accepted, self.kept = self.controller.update(step, u_measured, self.state.alive())
         return accepted
 
     def record(self, records: RunRecords, step: int, tried: np.ndarray, u_measured: np.ndarray, u_true: np.ndarray,

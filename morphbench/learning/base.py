@@ -52,3 +52,29 @@ class Learner(ABC):
     @abstractmethod
     def update(self, velocity: float) -> bool:
         """Take the measured velocity (mm/cycle) at the proposed phase; return whether the trial was accepted."""
+
+
+class Controller(ABC):
+    """What the run loop drives: every unit's phase for a learning step in, every unit's measurement out.
+
+    Protocol: ``initial()`` once (the phases the warm-up runs at), then per learning step ``propose(step, alive)``
+    and ``update(step, u_measured, alive)``, strictly alternating. Arrays are per unit, in unit order; ``alive[u]`` is
+    False for a unit killed by a damage event: it keeps its kept phase and measures NaN. The per-unit learners run as
+    one (morphbench.learning.plugins.Decentralized); centralized ones see every unit (morphbench.learning.controllers).
+    """
+
+    centralized: bool
+    """Whether one controller sees every unit's measurement (summary.json's ``centralized``)."""
+
+    @abstractmethod
+    def initial(self) -> np.ndarray:
+        """Every unit's kept phase before the first step, in [0, 1)."""
+
+    @abstractmethod
+    def propose(self, step: int, alive: np.ndarray) -> np.ndarray:
+        """Every unit's phase for learning step ``step``, in [0, 1) (a dead unit's: its kept phase)."""
+
+    @abstractmethod
+    def update(self, step: int, u_measured: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Take every unit's measured velocity (mm/cycle, NaN for a dead unit) at the proposed phases; whether each
+        unit accepted its trial and every unit's kept phase after the step (what ``phase_kept`` records)."""

@@ -3,6 +3,9 @@
 ``--learner`` takes ``thermal``, ``flaky`` or ``random`` (the no-learning baseline; any case), or a plug-in class as
 ``package.module:ClassName``; the module is imported with ``importlib``, so its directory must be on ``sys.path``
 (e.g. via ``PYTHONPATH``).
+It also takes the centralized baselines ``cmaes``, ``random-search`` and ``hill-climber``
+(morphbench.learning.controllers): one controller for all units instead of one learner per unit.
+``make_controller`` builds either for the run loop.
 
 The plug-in interface. A plug-in need not subclass ``morphbench.learning.Learner``, but it must:
 
@@ -56,16 +59,19 @@ import numpy as np
 
 from morphbench.errors import ConfigError, PluginError
 from morphbench.failures import describe
-from morphbench.learning.base import Learner
+from morphbench.learning.base import Controller
 from morphbench.learning.baselines import RandomLearner
+from morphbench.learning.controllers import CENTRALIZED, controller_rng
 from morphbench.learning.metropolis import FlakyLearner, ThermalLearner
 from morphbench.params import LearnerParams
 from morphbench.streams import LEARNER_STREAM
 
-LEARNERS: dict[str, type[Learner]] = {"thermal": ThermalLearner, "flaky": FlakyLearner, "random": RandomLearner}
+LEARNERS: dict[str, type] = {"thermal": ThermalLearner, "flaky": FlakyLearner, "random": RandomLearner, **CENTRALIZED}
+"""Every built-in by ``--learner`` name: the per-unit learners, then the centralized controllers."""
 
 _SOURCE = "--learner"
-_SPEC_FORM = "'thermal', 'flaky' or 'random' (any case), or a plug-in class as 'package.module:ClassName'"
+_SPEC_FORM = ("'thermal', 'flaky' or 'random' (per unit), 'cmaes', 'random-search' or 'hill-climber' (centralized; "
+              "any case), or a plug-in class as 'package.module:ClassName'")
 _METHODS = ("propose", "update")
 
 
@@ -73,7 +79,7 @@ def _is_identifier(name: str) -> bool:
     return name.isidentifier() and not keyword.iskeyword(name)
 
 
-def load_learner_class(spec: str) -> type[Learner]:
+def load_learner_class(spec: str) -> type:
     """The learner class named by ``spec``; raises ConfigError (never another exception) if it is unusable."""
     if not isinstance(spec, str):
         raise ConfigError(_SOURCE, repr(spec), f"a string: {_SPEC_FORM}")
@@ -150,6 +156,39 @@ def make_learners(cls: type, params: LearnerParams, seed: int, n_units: int) -> 
         _check_phase(learner, name)
         learners.append(learner)
     return learners
+
+
+def make_controller(cls: type, params: LearnerParams, seed: int, n_units: int) -> Controller:
+    """What the run loop drives for learner class ``cls``: a centralized controller with ``controller_rng(seed)``,
+    or ``make_learners``' per-unit learners as one Decentralized controller."""
+    if cls in CENTRALIZED.values():
+        return cls(params, controller_rng(seed), n_units)
+    return Decentralized(make_learners(cls, params, seed, n_units))
+
+
+class Decentralized(Controller):
+    """One learner per unit as the run loop's controller: each living unit's learner proposes its own phase and gets
+    its own measurement only, through the guarded calls (a PluginError names the plug-in, the unit and the step)."""
+
+    centralized = False
+
+    def __init__(self, learners: list):
+        self.learners = learners
+
+    def initial(self) -> np.ndarray:
+        self.kept = np.array([kept_phase(learner, u, 0) for u, learner in enumerate(self.learners)], dtype=float)
+        return self.kept
+
+    def propose(self, step: int, alive: np.ndarray) -> np.ndarray:
+        # a dead unit's learner stops: it keeps its phase and is not asked
+        return np.array([proposed_phase(learner, u, step) if alive[u] else self.kept[u]
+                         for u, learner in enumerate(self.learners)], dtype=float)
+
+    def update(self, step: int, u_measured: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        accepted = np.array([update_accepted(learner, u, step, float(u_measured[u])) if alive[u] else False
+                             for u, learner in enumerate(self.learners)])
+        self.kept = np.array([kept_phase(learner, u, step) for u, learner in enumerate(self.learners)], dtype=float)
+        return accepted, self.kept
 
 
 def _check_phase(learner: object, name: str) -> None:
