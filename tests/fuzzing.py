@@ -25,9 +25,9 @@ byte, 300-character name), a ``syntax`` error (truncated text, a stray character
 from __future__ import annotations
 
 import contextlib
+import datetime
 import io
 import itertools
-import json
 import math
 import os
 import random
@@ -105,6 +105,19 @@ class Deep:
         return "[" * self.depth + "1" + "]" * self.depth
 
 
+def toml_string(text: str) -> str:
+    """A TOML basic string: quotes and backslashes escaped, every control character (DEL too) as \\uXXXX."""
+    out = []
+    for char in text:
+        if char in '"\\':
+            out.append("\\" + char)
+        elif ord(char) < 0x20 or ord(char) == 0x7F:
+            out.append(f"\\u{ord(char):04x}")
+        else:
+            out.append(char)
+    return '"' + "".join(out) + '"'
+
+
 def toml_value(value: Any) -> str:
     if isinstance(value, Deep):
         return value.text()
@@ -119,17 +132,19 @@ def toml_value(value: Any) -> str:
             return "inf" if value > 0 else "-inf"
         return repr(value)
     if isinstance(value, str):
-        return json.dumps(value, ensure_ascii=False)  # JSON's escapes (\u0000, \n, \") are TOML's basic-string escapes
+        return toml_string(value)
+    if isinstance(value, (datetime.datetime, datetime.date, datetime.time)):
+        return value.isoformat()
     if isinstance(value, list):
         return "[" + ", ".join(toml_value(v) for v in value) + "]"
     if isinstance(value, dict):
-        return "{" + ", ".join(f"{json.dumps(k)} = {toml_value(v)}" for k, v in value.items()) + "}"
+        return "{" + ", ".join(f"{toml_string(k)} = {toml_value(v)}" for k, v in value.items()) + "}"
     raise TypeError(f"no TOML for {value!r}")
 
 
 def dump_toml(doc: dict) -> str:
     """``doc`` as TOML: every top-level key on one line, nested tables inline (valid, if not pretty)."""
-    return "".join(f"{json.dumps(k)} = {toml_value(v)}\n" for k, v in doc.items())
+    return "".join(f"{toml_string(k)} = {toml_value(v)}\n" for k, v in doc.items())
 
 
 # --- the valid files the mutations start from -------------------------------------------------------------------------

@@ -22,6 +22,7 @@ from morphbench.shapes import Shape, load_shape, params_from_table, shape_from_t
 from morphbench.shapes.loader import MAX_UNITS
 
 from conftest import SHAPES_DIR, assert_config_error, write
+from fuzzing import dump_toml
 
 # the plain chains; the rest: test_shapes_library.py
 SHIPPED = sorted(p for p in SHAPES_DIR.glob("chain-*.toml") if p.stem.removeprefix("chain-").isdigit())
@@ -233,50 +234,6 @@ ASSEMBLY_KEYS = {"generator", "units", "dummy"}
 FAST = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
-def _toml_string(text: str) -> str:
-    out = []
-    for char in text:
-        if char in '"\\':
-            out.append("\\" + char)
-        elif ord(char) < 0x20 or ord(char) == 0x7F:
-            out.append(f"\\u{ord(char):04x}")
-        else:
-            out.append(char)
-    return '"' + "".join(out) + '"'
-
-
-def _toml_value(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return repr(value)
-    if isinstance(value, str):
-        return _toml_string(value)
-    if isinstance(value, (datetime.datetime, datetime.date, datetime.time)):
-        return value.isoformat()
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{_toml_string(k)} = {_toml_value(v)}" for k, v in value.items()) + "}"
-    raise TypeError(value)
-
-
-def to_toml(table: dict) -> str:
-    """A TOML document for a table of scalars and one level of sub-tables (deeper values become inline tables)."""
-    lines = [f"{_toml_string(k)} = {_toml_value(v)}" for k, v in table.items() if not isinstance(v, dict)]
-    for key, sub in table.items():
-        if isinstance(sub, dict):
-            lines.append(f"[{_toml_string(key)}]")
-            lines.extend(f"{_toml_string(k)} = {_toml_value(v)}" for k, v in sub.items())
-    return "\n".join(lines) + "\n"
-
-
 def _valid_number(cls, key: str):
     """Any number the field's own rule (morphbench.params) accepts."""
     rule = rule_of(cls, key)[0]
@@ -311,7 +268,7 @@ def valid_tables(draw) -> dict:
 def test_random_valid_tables_load_with_exactly_their_values(table: dict):
     with tempfile.TemporaryDirectory() as directory:
         path = Path(directory) / "random.toml"
-        path.write_text(to_toml(table), encoding="utf-8")
+        path.write_text(dump_toml(table), encoding="utf-8")
         shape = load_shape(path)
     params = {s: cls(**{k: float(v) for k, v in table.get(s, {}).items()}) for s, cls in SECTIONS.items()}
     unit, dummy = params["unit"], params["dummy"]
@@ -405,7 +362,7 @@ def test_random_malformed_tables_raise_config_error(case: tuple[dict, str]):
     table, dotted = case
     with tempfile.TemporaryDirectory() as directory:
         path = Path(directory) / "malformed.toml"
-        path.write_text(to_toml(table), encoding="utf-8")
+        path.write_text(dump_toml(table), encoding="utf-8")
         with pytest.raises(ConfigError) as info:  # any other exception fails the test
             load_shape(path)
     message = str(info.value)
