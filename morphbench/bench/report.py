@@ -156,7 +156,7 @@ def _cell_value(row, column: str, central: set[str]) -> str:
     return f"{text} (centralized)" if column == "learner" and row.condition_id in central else text
 
 
-COMPARED = ("shape", "events", "noise")
+COMPARED = ("shape", "physics", "events", "noise")
 """What a condition of the decentralization comparison is: the learners compete within each."""
 
 
