@@ -296,6 +296,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ConfigError, PhysicsError) as exc:  # bad input, a failing plug-in (PluginError), physics off the model
         print(f"morphbench: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except KeyboardInterrupt:  # before a command has anything to keep (loading, checking); runs and suites say more
+        print("morphbench: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

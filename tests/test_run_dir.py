@@ -148,3 +148,15 @@ def test_a_killed_overwrite_leaves_the_old_run_or_the_new_one(tmp_path: Path, ca
         _assert_one_complete_run(out, {before, steps})
     # a killed run leaves at most its hidden temporary directory beside the run
     assert all(name == "run" or name.startswith(".run.tmp-") for name in os.listdir(tmp_path))
+
+
+def test_ctrl_c_before_a_run_starts_is_one_line(tmp_path: Path, capsys, monkeypatch):
+    import morphbench.experiment
+
+    def interrupted(path):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(morphbench.experiment, "load_run_config", interrupted)  # Ctrl-C while the file is read
+    code, stdout, err = run_cli(capsys, "run", CHAIN2, "--quiet", "--out", str(tmp_path / "run"))
+    assert (code, stdout, err) == (EXIT_INTERRUPTED, "", "morphbench: interrupted\n")
+    assert os.listdir(tmp_path) == []
