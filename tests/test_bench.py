@@ -513,11 +513,11 @@ def test_a_suite_with_environments_events_and_a_scan_environment_runs_and_record
      'kind = "noise"\nsigma = 1', "experiment[x].events[0].step", "<= the run's steps (5)"),
     ('[[experiment]]\nname = "x"\nshapes = ["{chain2}"]\nevents = {{step = 2}}', "experiment[x].events",
      "an array of tables"),
-    ('[[scan]]\nshape = "{chain2}"\nenvironment = {{noise = 0.5}}', "scan[1].environment.noise", "no noise"),
-    ('[[scan]]\nshape = "{chain2}"\nenvironment = {{friction_scale = -1}}', "scan[1].environment.friction_scale",
+    ('[[scan]]\nshape = "{chain2}"\nenvironment = {{noise = 0.5}}', "scan[0].environment.noise", "no noise"),
+    ('[[scan]]\nshape = "{chain2}"\nenvironment = {{friction_scale = -1}}', "scan[0].environment.friction_scale",
      "a number in (0, 100]"),
-    ('[[scan]]\nshape = "{chain2}"\nresolution = 0', "scan[1].resolution", "an integer in [1, 10000]"),
-    ('[[scan]]\nshape = "{chain2}"\ncolour = "red"', "scan[1].colour", "known keys"),
+    ('[[scan]]\nshape = "{chain2}"\nresolution = 0', "scan[0].resolution", "an integer in [1, 10000]"),
+    ('[[scan]]\nshape = "{chain2}"\ncolour = "red"', "scan[0].colour", "known keys"),
     ('title = "x"', "title", "known keys"),
     ('name = "x"', "experiment", "at least one"),
 ])
@@ -692,3 +692,17 @@ def test_cli_bad_input_is_one_line_with_status_2(tmp_path, capsys):
     with pytest.raises(SystemExit):
         cli("bench", str(bad), "--out", "x", "--workers", "2", "--scheduler", "tcp://localhost:1")
     capsys.readouterr()
+
+
+def test_physics_from_the_command_line_replaces_every_runs_and_scans_physics():
+    from morphbench.params import FAST_PHYSICS
+
+    smoke = BENCHMARKS / "smoke.toml"
+    own, fast = load_suite(smoke), load_suite(smoke, physics="fast")
+    assert {spec.config.physics for spec in fast.runs.values()} == {FAST_PHYSICS}
+    assert {spec.config.physics for spec in own.runs.values()} != {FAST_PHYSICS}
+    assert not set(own.runs) & set(fast.runs)  # other physics, other runs: a results directory keeps them apart
+    assert {scan.columns["physics"] for scan in fast.scans} == {"fast"}
+    with pytest.raises(ConfigError) as info:
+        load_suite(smoke, physics="slow")
+    assert info.value.source == "--physics"

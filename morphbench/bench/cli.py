@@ -10,6 +10,8 @@ import argparse
 import os
 import sys
 
+from morphbench.params import PHYSICS_PRESETS
+
 EXIT_FAILED_RUNS = 1
 EXIT_INTERRUPTED = 130
 
@@ -34,6 +36,8 @@ def add_bench_commands(subparsers) -> None:
     bench.add_argument("--retry-failed", action="store_true", help="run again the runs that failed last time")
     bench.add_argument("--no-report", action="store_true", help="write the tables but not the figures and report.md")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
+    bench.add_argument("--physics", choices=sorted(PHYSICS_PRESETS),
+                       help="run every run and scan of the suite on this physics preset instead of its own")
     bench.set_defaults(func=cmd_bench)
 
     report = subparsers.add_parser("report", help="rebuild the tables, figures and report.md of a results directory",
@@ -51,7 +55,7 @@ def cmd_bench(args) -> int:
     from morphbench.files import check_path
 
     check_path(args.out, "--out")  # before the suite is read: an empty or impossible name writes nothing
-    suite = load_suite(args.suite)
+    suite = load_suite(args.suite, physics=args.physics)
     client = connect(args.scheduler) if args.scheduler else None  # a bad address fails before anything runs
     executor = (DaskExecutor(client) if client is not None
                 else LocalExecutor(args.workers and min(args.workers, os.cpu_count() or 1)))

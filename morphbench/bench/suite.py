@@ -218,15 +218,20 @@ class Suite:
 # --- reading a suite file ---------------------------------------------------------------------------------------
 
 
-def load_suite(path: str | Path) -> Suite:
-    """Read, validate and expand a suite file."""
+def load_suite(path: str | Path, physics: str | None = None) -> Suite:
+    """Read, validate and expand a suite file; ``physics``, a preset name, replaces every run's and scan's physics
+    (``morphbench bench --physics``)."""
     path = Path(path)
     table, text = read_toml_with_text(path, "suite file")
-    return suite_from_table(table, source=str(path), base=path.parent, default_name=path.stem, text=text)
+    return suite_from_table(table, source=str(path), base=path.parent, default_name=path.stem, text=text,
+                            physics=physics)
 
 
-def suite_from_table(table: dict, *, source: str, base: Path, default_name: str = "suite", text: str = "") -> Suite:
-    """A suite from a parsed TOML table; morphology paths are relative to ``base``."""
+def suite_from_table(table: dict, *, source: str, base: Path, default_name: str = "suite", text: str = "",
+                     physics: str | None = None) -> Suite:
+    """A suite from a parsed TOML table; morphology paths are relative to ``base``; ``physics`` as in load_suite."""
+    if physics is not None:
+        P.check_rule(P.PHYSICS_PRESET, "", physics, "--physics", "physics")
     _check_keys(table, SUITE_KEYS, source, "")
     name = _name(table.get("name", default_name), source, "name")
     description = _string(table.get("description", ""), source, "description")
@@ -243,8 +248,8 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
     suite = Suite(name=name, description=description, source=source, text=text)
     ctx = _Context(source, base)
     seen: set[str] = set()
-    for index, raw in enumerate(experiments, start=1):
-        exp_name = _name(raw.get("name", f"experiment-{index}"), source, f"experiment[{index}].name")
+    for index, raw in enumerate(experiments):  # keys count from 0, as everywhere; default names from 1
+        exp_name = _name(raw.get("name", f"experiment-{index + 1}"), source, f"experiment[{index}].name")
         if exp_name in seen:
             raise ConfigError(source, f"experiment[{index}].name", "a name no other experiment has", exp_name)
         seen.add(exp_name)
@@ -254,12 +259,14 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
         own, names = _translate({k: v for k, v in raw.items() if k not in ("name", "description")}, source,
                                 f"{where}.")
         merged = _merge(defaults, {k: v for k, v in own.items() if k != "events"})
+        if physics is not None:
+            merged["physics"] = {"preset": physics}
         merged["events"] = own.get("events", defaults.get("events", []))  # an experiment's events replace the defaults'
         suite.experiments.append(_expand_experiment(merged, {**default_names, **names}, exp_name, exp_description,
                                                     suite.runs, ctx))
     scan_names: set[str] = set()
-    for index, raw in enumerate(scans, start=1):
-        spec = _expand_scan(raw, index, ctx)
+    for index, raw in enumerate(scans):
+        spec = _expand_scan({**raw, "physics": physics} if physics and isinstance(raw, dict) else raw, index, ctx)
         if spec.name in scan_names:
             raise ConfigError(source, f"scan[{index}].name", "a name no other scan has", spec.name)
         scan_names.add(spec.name)
