@@ -22,6 +22,12 @@ def wrap_phase(phase: float) -> float:
     return 0.0 if wrapped >= 1.0 else wrapped
 
 
+def wrap_phases(phases) -> np.ndarray:
+    """``wrap_phase`` of every phase of an array (a controller's phase vector)."""
+    wrapped = np.asarray(phases, dtype=float) % 1.0
+    return np.where(wrapped >= 1.0, 0.0, wrapped)
+
+
 def initial_memory(params: LearnerParams) -> float | None:
     """U_mem before the first trial: None while it is still to be measured ('measure'), else -inf or 0.0."""
     return {"measure": None, "-inf": -math.inf, "zero": 0.0}[params.initial_memory]

@@ -20,7 +20,7 @@ from abc import abstractmethod
 
 import numpy as np
 
-from morphbench.learning.base import Controller
+from morphbench.learning.base import Controller, wrap_phases
 from morphbench.params import LearnerParams, check_params
 from morphbench.streams import CONTROLLER_STREAM
 
@@ -32,12 +32,6 @@ final Ubar 2.5 mm/cycle against 1.0 with a quarter cycle: larger steps spend the
 def controller_rng(seed: int) -> np.random.Generator:
     """The one random stream of a centralized controller in a run seeded with ``seed``."""
     return np.random.default_rng(np.random.SeedSequence([seed, CONTROLLER_STREAM]))
-
-
-def wrap_phases(phases: np.ndarray) -> np.ndarray:
-    """``phases`` modulo 1, always in [0, 1) (a tiny negative phase would round up to 1.0)."""
-    wrapped = np.asarray(phases, dtype=float) % 1.0
-    return np.where(wrapped >= 1.0, 0.0, wrapped)
 
 
 class CentralController(Controller):

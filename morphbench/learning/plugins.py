@@ -59,7 +59,7 @@ import numpy as np
 
 from morphbench.errors import ConfigError, PluginError
 from morphbench.failures import describe
-from morphbench.learning.base import Controller
+from morphbench.learning.base import Controller, wrap_phase
 from morphbench.learning.baselines import RandomLearner
 from morphbench.learning.controllers import CENTRALIZED, controller_rng
 from morphbench.learning.metropolis import FlakyLearner, ThermalLearner
@@ -225,10 +225,7 @@ def as_phase(value: Any) -> float | None:
         phase = float(value)
     except (TypeError, ValueError, OverflowError):  # e.g. an int beyond float range, or a broken __float__
         return None
-    if not math.isfinite(phase):
-        return None
-    phase %= 1.0
-    return 0.0 if phase == 1.0 else phase  # a tiny negative phase wraps to 1.0 in floating point
+    return wrap_phase(phase) if math.isfinite(phase) else None
 
 
 def call_learner(learner: object, method: str, unit: int, step: int, *args: Any) -> Any:
