@@ -23,6 +23,7 @@ from morphbench.bench.suite import load_suite
 from morphbench.params import DEFAULT_PHYSICS, FAST_PHYSICS, QUASISTATIC_PHYSICS
 from morphbench.physics import World, make_world
 from morphbench.physics.bellows import GRAVITY
+from morphbench.sensing.base import tilts
 from morphbench.shapes import load_shape, shape_from_table
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -55,8 +56,7 @@ def sanity(args) -> dict:
             if not (np.all(np.isfinite(positions)) and np.all(np.isfinite(orientations))):
                 finite = False
                 break
-            x, y = orientations[:, 0], orientations[:, 1]
-            tilt = max(tilt, float(np.degrees(np.arccos(np.clip(1 - 2 * (x * x + y * y), -1, 1))).max()))
+            tilt = max(tilt, float(tilts(orientations).max()))
             rise = max(rise, float(((positions[:, 2] - rest[:, 2]) / heights).max()))
         travelled = float(np.linalg.norm((positions - rest)[:, :2].mean(axis=0))) if finite else float("nan")
         unconverged = getattr(world, "unconverged_ticks", 0)

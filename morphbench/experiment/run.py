@@ -35,7 +35,7 @@ from morphbench.params import (
 from morphbench.physics import World, make_world
 from morphbench.physics.camera import CameraGround
 from morphbench.sensing import GroundTexture, IdealSensor, OpticalSensor, Sensor
-from morphbench.sensing.base import forward_axes
+from morphbench.sensing.base import forward_axes, tilts
 from morphbench.shapes import Shape, load_shape, params_from_dict
 from morphbench.streams import NOISE_STREAM, OPTICAL_STREAM
 
@@ -311,9 +311,7 @@ class _Validity:
         positions, orientations = self.world.poses()
         cycles = (self.world.time - self.time) / self.shape.actuator.cycle_time
         finite = np.isfinite(positions).all(axis=1) & np.isfinite(orientations).all(axis=1)
-        q = orientations / np.linalg.norm(orientations, axis=1, keepdims=True)
-        upright = 1.0 - 2.0 * (q[:, 0] ** 2 + q[:, 1] ** 2)  # the z component of the body's own z axis
-        tilt = np.degrees(np.arccos(np.clip(upright, -1.0, 1.0)))
+        tilt = tilts(orientations)
         rise = positions[:, 2] - self.rest_height
         d = positions - self.positions
         moved = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])  # hypot: no overflow when a body flew off

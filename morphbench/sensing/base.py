@@ -18,6 +18,14 @@ def forward_axes(orientations: np.ndarray) -> np.ndarray:
     return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], axis=1)
 
 
+def tilts(orientations: np.ndarray) -> np.ndarray:
+    """Degrees of each body's own z axis from the vertical, from (N, 4) quaternions (x, y, z, w), normalised first."""
+    q = np.asarray(orientations, dtype=float)
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    upright = 1.0 - 2.0 * (q[:, 0] ** 2 + q[:, 1] ** 2)  # the z component of the body's own z axis
+    return np.degrees(np.arccos(np.clip(upright, -1.0, 1.0)))
+
+
 class Sensor(ABC):
     """Measures each unit's displacement along its own forward axis, integrated between ``reset`` calls."""
 
