@@ -11,8 +11,8 @@ class ConfigError(Exception):
         message = f"{self.source}: {key}: expected {expected}"
         if got is not ...:
             message += f", got {got!r}"
-        # one line, whatever a path or name in it holds
-        super().__init__(message.replace("\r", "\\r").replace("\n", "\\n"))
+        # one printable line, whatever a path or name in it holds
+        super().__init__(message.replace("\r", "\\r").replace("\n", "\\n").replace("\0", "\\0"))
 
 
 def require_integer(value: object, source: str, key: str, low: float, high: float = float("inf"),

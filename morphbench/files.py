@@ -157,7 +157,7 @@ def check_path(text: str, source: str, key: str | None = None, room: int = 0) ->
     if not text:
         raise ConfigError(source, "''", "a path, not an empty string")
     if "\0" in text:
-        raise ConfigError(source, key.replace("\0", "\\0"), "a path without a NUL byte")
+        raise ConfigError(source, key, "a path without a NUL byte")
     path = Path(text)
     ancestor = os.path.abspath(path)
     while not os.path.exists(ancestor):  # False for a name too long, too
@@ -194,7 +194,7 @@ def read_toml_with_text(path: Path, what: str) -> tuple[dict[str, Any], str]:
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(path, "(file)", f"a readable UTF-8 TOML file ({exc})") from None
     except ValueError:  # a NUL byte in the path
-        raise ConfigError(str(path).replace("\0", "\\0"), "(file)", "a path without a NUL byte") from None
+        raise ConfigError(path, "(file)", "a path without a NUL byte") from None
     try:
         return tomllib.loads(text), text
     except tomllib.TOMLDecodeError as exc:
