@@ -128,21 +128,12 @@ def measure(world: World, sensors: list[Sensor], n_cycles: int, on_tick: Callabl
     for sensor in sensors:
         sensor.reset(*poses)
     periods = [max(1, world.ticks_in(sensor.sample_period)) for sensor in sensors]
-
-    def sample_due(k: int) -> None:
-        due = [s for s, every in zip(sensors, periods) if (k + 1) % every == 0 and k + 1 < n_ticks]
-        if due:
-            tick_poses = world.unit_poses()
-            for sensor in due:
-                sensor.sample(*tick_poses)
-        if on_tick is not None:
-            on_tick(world)
-
-    # Without an observer the world only calls back on ticks where some sensor may be due.
-    world.advance(n_ticks, sample_due, every=1 if on_tick is not None else math.gcd(*periods))
-    poses = world.unit_poses()
-    for sensor in sensors:
-        sensor.sample(*poses)
+    every = math.gcd(*periods)
+    positions, orientations = world.advance_sampled(n_ticks, every, on_tick)
+    ticks = np.append(np.arange(every, n_ticks, every), n_ticks)  # the tick each sample follows
+    for sensor, period in zip(sensors, periods):
+        due = (ticks % period == 0) | (ticks == n_ticks)
+        sensor.sample_many(positions[due], orientations[due])
     return [sensor.displacement() for sensor in sensors]
 
 

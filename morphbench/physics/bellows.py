@@ -90,37 +90,6 @@ class Bellows:
         pumping = np.mod(t[:, None] / actuator.cycle_time - self.phases, 1.0) < actuator.alpha
         return pumping & np.array([d != "dead" for d in self.damage])
 
-    def _advance_quasistatic(self, n_ticks: int, on_tick, pumps: bool, every: int, solve) -> None:
-        """``advance`` of a quasi-static world (no inertia, so ticks can be solved in batches): pressures, rest
-        lengths and friction limits for the coming ticks, then ``solve(lengths, limits)`` over segments that end
-        where a callback is due or the friction field is read again at the bodies' new places."""
-        if n_ticks <= 0:
-            return
-        start = self.time
-        trajectory = self._pressures(start, n_ticks, pumps)
-        lengths = self._rest_lengths(trajectory)  # (n_ticks, n_links)
-        n_bodies = len(self.shape.bodies)
-        friction = np.broadcast_to(self._base_friction * self._friction_scale, (n_ticks, n_bodies)).copy()
-        if pumps and self.environment.vibration != 1.0:
-            pumping = self._pumping(start, n_ticks)
-            friction[:, self._unit_bodies] *= np.where(pumping, self.environment.vibration, 1.0)
-        limits = friction * np.array([body.mass * GRAVITY for body in self.shape.bodies])
-        breaks = set(range(every, n_ticks + 1, every)) if on_tick is not None else set()
-        field_ticks = set(range(0, n_ticks, max(1, round(FIELD_UPDATE_PERIOD / self.tick)))) if self._field else set()
-        breaks |= field_ticks
-        breaks.add(n_ticks)
-        begin, factor = 0, 1.0
-        for end in sorted(b for b in breaks if b > 0):
-            if begin in field_ticks:
-                xy = self.poses()[0][:, :2]
-                factor = self._field.friction(1.0, xy[:, 0], xy[:, 1])
-            solve(lengths[begin:end], limits[begin:end] * factor)
-            if on_tick is not None and end % every == 0:
-                self.pressure, self.time = trajectory[end - 1], start + end * self.tick
-                on_tick(end - 1)
-            begin = end
-        self.pressure, self.time = trajectory[-1], start + n_ticks * self.tick
-
     def set_damage(self, unit: int, mode: str) -> None:
         """Damage the active unit at ``unit`` (unit order, 0-based): 'no-inflate' (its bellows cannot extend; pump and
         vibration go on), 'stuck' (its bellows keeps its current length), 'dead' (no pump, no vibration); '' heals."""
@@ -146,6 +115,29 @@ class Bellows:
         return connected_groups(len(self.shape.bodies),
                                 [link for link, intact in zip(self._links, self.intact) if intact])
 
+    def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
+        """Run ``n_ticks`` ticks. ``on_tick(k)`` is called after tick k (0-based) if given and k + 1 is a multiple
+        of ``every``, with ``time`` and ``pressure`` already those at the end of that tick. With ``pumps=False``
+        every bellows stays empty."""
+        raise NotImplementedError
+
+    def advance_sampled(self, n_ticks: int, every: int, on_tick=None) -> tuple[np.ndarray, np.ndarray]:
+        """Run ``n_ticks`` ticks with the pumps on; the active units' poses (unit order) after ticks ``every``,
+        2 ``every``, ... before the last, and after the last: (K, n_units, 3) positions (m) and (K, n_units, 4)
+        quaternions (x, y, z, w). ``on_tick(self)``, if given, is called after every tick (an observer)."""
+        samples = []
+
+        def collect(k: int) -> None:
+            if (k + 1) % every == 0 and k + 1 < n_ticks:
+                samples.append(self.unit_poses())
+            if on_tick is not None:
+                on_tick(self)
+
+        self.advance(n_ticks, collect, every=1 if on_tick is not None else every)
+        samples.append(self.unit_poses())
+        positions, orientations = zip(*samples)
+        return np.stack(positions), np.stack(orientations)
+
     def unit_poses(self) -> tuple[np.ndarray, np.ndarray]:
         """Poses of the active units, in unit order."""
         return self.poses(self.shape.units)
@@ -161,3 +153,84 @@ class Bellows:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class QuasiStatic(Bellows):
+    """The base of the worlds without inertia (QuasiStaticWorld, PlanarWorld): with no velocities to carry, ticks
+    are solved in batches by the subclass's compiled ``relax_ticks``, which moves its ``state`` array; ``poses_of``
+    turns states into poses, so sampled poses are recorded inside the compiled loop, not by a callback per sample."""
+
+    state: np.ndarray
+    """each body's coordinates (a subclass's own layout)."""
+
+    def relax_ticks(self, lengths, limits, record=None, states=None) -> None:
+        """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``
+        (n_ticks, n_bodies) each body's friction limit (N). After tick t, if ``record[t]`` >= 0, the state is
+        copied into row ``record[t]`` of ``states`` (from ``new_states``)."""
+        lengths, limits = np.asarray(lengths, dtype=float), np.asarray(limits, dtype=float)
+        if record is None:
+            record, states = np.full(len(lengths), -1, dtype=np.int64), self.new_states(0)
+        self._solve(lengths, limits, record, states)
+
+    def _solve(self, lengths: np.ndarray, limits: np.ndarray, record: np.ndarray, states: np.ndarray) -> None:
+        """``relax_ticks`` with every argument given (the subclass's compiled solver)."""
+        raise NotImplementedError
+
+    def poses_of(self, states: np.ndarray, which) -> tuple[np.ndarray, np.ndarray]:
+        """(K, n, 3) positions and (K, n, 4) quaternions of the bodies ``which`` in each of K states."""
+        raise NotImplementedError
+
+    def new_states(self, n: int) -> np.ndarray:
+        """Room for ``n`` copies of the state."""
+        return np.empty((n,) + self.state.shape)
+
+    def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
+        index = np.arange(len(self.shape.bodies)) if which is None else which
+        positions, orientations = self.poses_of(self.state[None], index)
+        return positions[0], orientations[0]
+
+    def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
+        self._advance(n_ticks, on_tick, pumps, every)
+
+    def advance_sampled(self, n_ticks: int, every: int, on_tick=None) -> tuple[np.ndarray, np.ndarray]:
+        if on_tick is not None or n_ticks <= 0:
+            return super().advance_sampled(n_ticks, every, on_tick)
+        sampled = np.arange(every, n_ticks, every) - 1  # the ticks k with k + 1 a multiple of every, before the last
+        record = np.full(n_ticks, -1, dtype=np.int64)
+        record[sampled] = np.arange(len(sampled))
+        record[-1] = len(sampled)
+        states = self.new_states(len(sampled) + 1)
+        self._advance(n_ticks, None, True, every, record, states)
+        return self.poses_of(states, self.shape.units)
+
+    def _advance(self, n_ticks: int, on_tick, pumps: bool, every: int, record=None, states=None) -> None:
+        """``advance`` of a quasi-static world: pressures, rest lengths and friction limits for the coming ticks,
+        then ``relax_ticks`` over segments that end where a callback is due or the friction field is read again at
+        the bodies' new places (``record`` and ``states`` as there)."""
+        if n_ticks <= 0:
+            return
+        start = self.time
+        trajectory = self._pressures(start, n_ticks, pumps)
+        lengths = self._rest_lengths(trajectory)  # (n_ticks, n_links)
+        n_bodies = len(self.shape.bodies)
+        friction = np.broadcast_to(self._base_friction * self._friction_scale, (n_ticks, n_bodies)).copy()
+        if pumps and self.environment.vibration != 1.0:
+            pumping = self._pumping(start, n_ticks)
+            friction[:, self._unit_bodies] *= np.where(pumping, self.environment.vibration, 1.0)
+        limits = friction * np.array([body.mass * GRAVITY for body in self.shape.bodies])
+        breaks = set(range(every, n_ticks + 1, every)) if on_tick is not None else set()
+        field_ticks = set(range(0, n_ticks, max(1, round(FIELD_UPDATE_PERIOD / self.tick)))) if self._field else set()
+        breaks |= field_ticks
+        breaks.add(n_ticks)
+        begin, factor = 0, 1.0
+        for end in sorted(b for b in breaks if b > 0):
+            if begin in field_ticks:
+                xy = self.poses()[0][:, :2]
+                factor = self._field.friction(1.0, xy[:, 0], xy[:, 1])
+            self.relax_ticks(lengths[begin:end], limits[begin:end] * factor,
+                             None if record is None else record[begin:end], states)
+            if on_tick is not None and end % every == 0:
+                self.pressure, self.time = trajectory[end - 1], start + end * self.tick
+                on_tick(end - 1)
+            begin = end
+        self.pressure, self.time = trajectory[-1], start + n_ticks * self.tick

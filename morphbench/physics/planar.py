@@ -27,7 +27,7 @@ import numpy as np
 
 from morphbench.errors import ConfigError
 from morphbench.params import EnvironmentParams, PhysicsParams
-from morphbench.physics.bellows import Bellows
+from morphbench.physics.bellows import QuasiStatic
 from morphbench.shapes.model import Shape
 
 _FLAT_TOLERANCE = 1e-9  # m: bodies whose centres differ in height by more than this are not on one layer
@@ -50,7 +50,7 @@ def friction_radius(length: float, width: float, samples: int = 64) -> float:
     return float(np.mean(np.hypot(xx, yy)))
 
 
-class PlanarWorld(Bellows):
+class PlanarWorld(QuasiStatic):
     """The same interface as the other worlds: set phases, advance ticks, read poses; damage, cuts, friction.
 
     Bodies slide and turn on the ground at their shape's height. ``client`` is None: there is no PyBullet scene.
@@ -82,25 +82,27 @@ class PlanarWorld(Bellows):
         self.time = 0.0
         """s, the pumps' clock (nothing needs settling: bodies start at rest on the ground)."""
 
-    def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
-        """Run ``n_ticks`` ticks; ``on_tick(k)`` after tick k when k + 1 is a multiple of ``every`` (as World)."""
-        self._advance_quasistatic(n_ticks, on_tick, pumps, every, self.relax_ticks)
+    @property
+    def state(self) -> np.ndarray:
+        return self.q
 
-    def relax_ticks(self, lengths, limits) -> None:
-        """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``
-        (n_ticks, n_bodies) each body's friction limit (N)."""
-        total, failed = _solve_ticks(self.q, self._last, np.asarray(lengths, dtype=float),
-                                     np.asarray(limits, dtype=float), self._front, self._rear, self._plane_axes,
-                                     self.intact, self._stiffness, self.shape.actuator.max_force, self._rho)
+    def _solve(self, lengths, limits, record, states) -> None:
+        total, failed = _solve_ticks(self.q, self._last, lengths, limits, self._front, self._rear, self._plane_axes,
+                                     self.intact, self._stiffness, self.shape.actuator.max_force, self._rho, record,
+                                     states)
         self.newton_steps += total
         self.unconverged_ticks += failed
 
-    def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
-        index = np.arange(len(self.q)) if which is None else np.asarray(which, dtype=int)
-        positions = np.column_stack([self.q[index, :2], self._rest[index, 2]])
-        half = self.q[index, 2] / 2
-        zeros = np.zeros(len(index))
-        return positions, np.column_stack([zeros, zeros, np.sin(half), np.cos(half)])
+    def poses_of(self, states: np.ndarray, which) -> tuple[np.ndarray, np.ndarray]:
+        index = np.asarray(which, dtype=int)
+        k, n = len(states), len(index)
+        positions = np.empty((k, n, 3))
+        positions[:, :, :2] = states[:, index, :2]
+        positions[:, :, 2] = self._rest[index, 2]
+        half = states[:, index, 2] / 2
+        orientations = np.zeros((k, n, 4))
+        orientations[:, :, 2], orientations[:, :, 3] = np.sin(half), np.cos(half)
+        return positions, orientations
 
 
 @numba.njit(cache=True)
@@ -313,9 +315,10 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
 
 
 @numba.njit(cache=True)
-def _solve_ticks(q, last, lengths, limits, front, rear, axes, intact, stiffness, cap, rho):
+def _solve_ticks(q, last, lengths, limits, front, rear, axes, intact, stiffness, cap, rho, record, states):
     """Advance the poses ``q`` (n, 3, in place) through the ticks of ``lengths`` / ``limits``; ``last`` holds the
-    previous increments, each tick's first guess."""
+    previous increments, each tick's first guess. After tick t, ``q`` is copied to ``states[record[t]]`` if
+    ``record[t]`` >= 0."""
     n = q.shape[0]
     u = np.empty(3 * n)
     scale = np.ones(3 * n)  # the friction metric: (1, 1, rho) per body
@@ -337,4 +340,6 @@ def _solve_ticks(q, last, lengths, limits, front, rear, axes, intact, stiffness,
             for j in range(3):
                 last[i, j] = u[3 * i + j]
                 q[i, j] += u[3 * i + j]
+        if record[t] >= 0:
+            states[record[t]] = q
     return total, failed

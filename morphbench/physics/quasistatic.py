@@ -23,7 +23,7 @@ import numpy as np
 
 from morphbench.errors import ConfigError
 from morphbench.params import EnvironmentParams, PhysicsParams
-from morphbench.physics.bellows import Bellows
+from morphbench.physics.bellows import QuasiStatic
 from morphbench.shapes.model import Shape
 
 _AXIS_TOLERANCE = 1e-9  # links whose directions differ by more than this are not on one axis
@@ -50,7 +50,7 @@ def chain_axis(shape: Shape) -> np.ndarray:
                       "use --physics fast or reference for grids, stacks and branched shapes")
 
 
-class QuasiStaticWorld(Bellows):
+class QuasiStaticWorld(QuasiStatic):
     """The same interface as the PyBullet ``World``: set phases, advance ticks, read poses; damage, cuts, friction.
 
     Bodies move along the chain's axis only and keep their orientation; they rest on the ground at their shape's
@@ -104,17 +104,19 @@ class QuasiStaticWorld(Bellows):
         self._pair_link = np.array(pair_link, dtype=np.int64)
         self._pair_sign = np.array(pair_sign, dtype=float)
 
-    def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
-        """Run ``n_ticks`` ticks; ``on_tick(k)`` after tick k when k + 1 is a multiple of ``every`` (as World)."""
-        self._advance_quasistatic(n_ticks, on_tick, pumps, every, self.relax_ticks)
+    @property
+    def state(self) -> np.ndarray:
+        return self.s
 
-    def relax_ticks(self, lengths, limits) -> None:
-        """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``
-        (n_ticks, n_bodies) each body's friction limit (N)."""
+    def _solve(self, lengths, limits, record, states) -> None:
         actuator = self.shape.actuator
-        _solve_ticks(self.s, np.asarray(lengths, dtype=float) - self._empty_pitch, np.asarray(limits, dtype=float),
-                     self._order, self._starts, self._pair_link, self._pair_sign, 1.0 / actuator.stiffness,
-                     actuator.max_force)
+        _solve_ticks(self.s, lengths - self._empty_pitch, limits, self._order, self._starts, self._pair_link,
+                     self._pair_sign, 1.0 / actuator.stiffness, actuator.max_force, record, states)
+
+    def poses_of(self, states: np.ndarray, which) -> tuple[np.ndarray, np.ndarray]:
+        index = np.asarray(which, dtype=int)
+        positions = self._rest[index] + states[:, index, None] * self.axis
+        return positions, np.tile(self.shape.orientation, positions.shape[:2] + (1,))
 
     def relax(self, extension, limits) -> None:
         """One tick: move the bodies to the minimiser of the incremental energy, given each bellows' extension
@@ -127,16 +129,12 @@ class QuasiStaticWorld(Bellows):
             self.intact[link] = False
             self._build_paths()
 
-    def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
-        index = np.arange(len(self.s)) if which is None else np.asarray(which, dtype=int)
-        positions = self._rest[index] + self.s[index, None] * self.axis
-        return positions, np.tile(self.shape.orientation, (len(index), 1))
-
 
 @numba.njit(cache=True)
-def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inverse_k, cap):
+def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inverse_k, cap, record, states):
     """Advance the displacements ``s`` (in place) through the ticks of ``extension`` / ``limits``: one exact solve
-    of the incremental energy per tick and piece."""
+    of the incremental energy per tick and piece; after tick t, ``s`` is copied to ``states[record[t]]`` if
+    ``record[t]`` >= 0."""
     n = len(order)
     width = 2 * n + 4
     xs = np.empty((n, width))  # breakpoints (x, s) of each body's subgradient graph, before passing it on
@@ -262,3 +260,5 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inve
                     d[i] = xs[i, q - 1] + f * (xs[i, q] - xs[i, q - 1])
             for i in range(m):
                 s[order[a + i]] += d[i]
+        if record[t] >= 0:
+            states[record[t]] = s

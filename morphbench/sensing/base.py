@@ -40,6 +40,12 @@ class Sensor(ABC):
     def sample(self, positions: np.ndarray, orientations: np.ndarray) -> None:
         """Integrate the motion since the previous sample (or reset)."""
 
+    def sample_many(self, positions: np.ndarray, orientations: np.ndarray) -> None:
+        """``sample`` at K poses in turn: (K, N, 3) positions and (K, N, 4) quaternions, oldest first (a bank may
+        do it at once, with the same result)."""
+        for p, q in zip(positions, orientations):
+            self.sample(p, q)
+
     @abstractmethod
     def displacement(self) -> np.ndarray:
         """m, (N,) displacement of each unit along its own forward axis since the last reset."""

@@ -29,5 +29,19 @@ class IdealSensor(Sensor):
         self._displacement += np.einsum("ij,ij->i", positions - self._last_positions, mid_axes)
         self._last_positions, self._last_axes = positions, axes
 
+    def sample_many(self, positions: np.ndarray, orientations: np.ndarray) -> None:
+        positions = np.asarray(positions, dtype=float)
+        k, n = positions.shape[:2]
+        if k == 0:
+            return
+        axes = forward_axes(np.reshape(orientations, (k * n, 4))).reshape(k, n, 3)
+        before = np.concatenate([self._last_positions[None], positions[:-1]])
+        mid_axes = np.concatenate([self._last_axes[None], axes[:-1]]) + axes
+        mid_axes /= np.linalg.norm(mid_axes, axis=2, keepdims=True)
+        moved = np.einsum("kij,kij->ki", positions - before, mid_axes)
+        # Summed in sample order, as ``sample`` would: cumsum adds sequentially.
+        self._displacement = np.cumsum(np.concatenate([self._displacement[None], moved]), axis=0)[-1]
+        self._last_positions, self._last_axes = positions[-1], axes[-1]
+
     def displacement(self) -> np.ndarray:
         return self._displacement.copy()

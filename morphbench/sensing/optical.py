@@ -183,6 +183,7 @@ class OpticalSensor(Sensor):
         self._noise_bank = bank * np.float32(255 * params.noise)
         # Poses and noise frame indices of the frames not rendered yet, oldest first.
         self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
+        self._pending_views = 0
         self._frame: np.ndarray | None = None  # newest rendered frame of every unit, stacked, or None before any
         self._on_ground = np.zeros(n_units, dtype=bool)  # whether each unit's sensor was on the ground in it
         self._columns_moved = np.zeros(n_units)  # px, summed image shift along the forward axis, sign of the unit
@@ -190,17 +191,26 @@ class OpticalSensor(Sensor):
 
     def reset(self, positions: np.ndarray, orientations: np.ndarray) -> None:
         self._pending.clear()
+        self._pending_views = 0
         self._frame = None
         self._columns_moved = np.zeros(self.n_units)
         self._lost = np.zeros(self.n_units, dtype=int)
-        self._record(positions, orientations)
+        self._record(np.array(positions, dtype=float)[None], np.array(orientations, dtype=float)[None])
 
     def sample(self, positions: np.ndarray, orientations: np.ndarray) -> None:
+        self.sample_many(np.asarray(positions)[None], np.asarray(orientations)[None])
+
+    def sample_many(self, positions: np.ndarray, orientations: np.ndarray) -> None:
         if self._frame is None and not self._pending:
             raise RuntimeError("OpticalSensor.sample before reset: reset gives the first frame")
-        self._record(positions, orientations)
-        if len(self._pending) * self.n_units >= BATCH_VIEWS:
-            self._integrate()
+        positions, orientations = np.array(positions, dtype=float), np.array(orientations, dtype=float)  # held
+        first = 0
+        while first < len(positions):  # in batches of BATCH_VIEWS views, as many as fill the pending batch
+            last = first + max(1, -(-(BATCH_VIEWS - self._pending_views) // self.n_units))
+            self._record(positions[first:last], orientations[first:last])
+            if self._pending_views >= BATCH_VIEWS:
+                self._integrate()
+            first = last
 
     def displacement(self) -> np.ndarray:
         self._integrate()
@@ -256,13 +266,16 @@ class OpticalSensor(Sensor):
         return affines, on_ground
 
     def _record(self, positions: np.ndarray, orientations: np.ndarray) -> None:
-        positions, orientations = np.array(positions, dtype=float), np.array(orientations, dtype=float)
-        if positions.shape != (self.n_units, 3) or orientations.shape != (self.n_units, 4):
-            raise ValueError(f"expected poses of {self.n_units} units, (N, 3) and (N, 4), "
-                             f"got {positions.shape} and {orientations.shape}")
+        """Hold K frames of every unit: (K, N, 3) positions and (K, N, 4) quaternions."""
+        k, n = len(positions), self.n_units
+        if positions.shape[1:] != (n, 3) or orientations.shape != (k, n, 4):
+            raise ValueError(f"expected poses of {n} units, (N, 3) and (N, 4), "
+                             f"got {positions.shape[1:]} and {orientations.shape[1:]}")
         # Noise is drawn now, frame by frame, so the results do not depend on when the frames are processed.
-        noise_frames = self._rng.integers(NOISE_BANK_FRAMES, size=self.n_units) if self.params.noise else None
-        self._pending.append((positions, orientations, noise_frames))
+        noise_frames = np.concatenate([self._rng.integers(NOISE_BANK_FRAMES, size=n) for _ in range(k)]) \
+            if self.params.noise else None
+        self._pending.append((positions.reshape(k * n, 3), orientations.reshape(k * n, 4), noise_frames))
+        self._pending_views += k * n
 
     def _integrate(self) -> None:
         """Render the pending frames and add their motion, all units and frames in one batch."""
@@ -270,6 +283,7 @@ class OpticalSensor(Sensor):
             return
         positions, orientations, noise_frames = zip(*self._pending)
         self._pending.clear()
+        self._pending_views = 0
         noise = None if self.params.noise == 0 else np.concatenate(noise_frames)
         frames, on_ground = self.frames(np.concatenate(positions), np.concatenate(orientations), noise)
         if self._frame is not None:  # the newest frame of the previous batch is this batch's first reference
