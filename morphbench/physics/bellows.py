@@ -50,6 +50,7 @@ class Bellows:
         self.damage = ["" for _ in shape.units]
         """per active unit (unit order): '' (healthy) or a mode of DAMAGE_MODES."""
         self._stuck_length = np.full(len(shape.links), np.nan)
+        self._extends = self._extending()
         self._friction_scale = environment.friction_scale
         self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
         self._base_friction = np.array([body.friction for body in shape.bodies])
@@ -76,12 +77,15 @@ class Bellows:
     def _rest_lengths(self, trajectory: np.ndarray) -> np.ndarray:
         """(n_ticks, n_links) rest length of each bellows: a damaged one cannot inflate, a stuck one keeps its
         length."""
-        extends = np.array([u >= 0 and self.damage[u] not in ("no-inflate", "dead") for u in self.link_units],
-                           dtype=float)
-        rest = self._empty_pitch + self._strokes * trajectory * extends
+        rest = self._empty_pitch + self._strokes * trajectory * self._extends
         stuck = ~np.isnan(self._stuck_length)
         rest[:, stuck] = self._stuck_length[stuck]
         return rest
+
+    def _extending(self) -> np.ndarray:
+        """1.0 for each link whose bellows can inflate (driven by a unit not damaged 'no-inflate' or 'dead'), else
+        0.0."""
+        return np.array([u >= 0 and self.damage[u] not in ("no-inflate", "dead") for u in self.link_units], dtype=float)
 
     def _pumping(self, start: float, n_ticks: int) -> np.ndarray:
         """(n_ticks, n_units) whether each unit's pump runs at the start of each coming tick (a dead one never)."""
@@ -98,6 +102,7 @@ class Bellows:
         if self.damage[unit] == mode:
             return
         self.damage[unit] = mode
+        self._extends = self._extending()
         driven = self.link_units == unit
         self._stuck_length[driven] = (self._empty_pitch + self._strokes * self.pressure)[driven] \
             if mode == "stuck" else np.nan

@@ -29,31 +29,35 @@ def pressure_trajectory(
     T, alpha = actuator.cycle_time, actuator.alpha
     if not tick < min(alpha, 1 - alpha) * T:
         raise ValueError(f"control tick {tick} s must be shorter than the pump's on and off times")
-    phases = np.asarray(phases, dtype=float)
-    starts = t0 + tick * np.arange(n_ticks)[:, None]  # (n_ticks, 1)
-    cycle_pos = np.mod(starts / T - phases, 1.0)  # (n_ticks, n), in cycles
-    on = cycle_pos < alpha
-    until_switch = np.where(on, alpha - cycle_pos, 1.0 - cycle_pos) * T
-    first = np.minimum(until_switch, tick)  # s spent in the state the tick starts in
-    second = tick - first  # s spent in the other state
-    # Each segment maps p -> target + (p - target) * decay; compose both segments into one affine map per tick.
-    decay_on, decay_off = np.exp(-first / actuator.tau_inflate), np.exp(-first / actuator.tau_vent)
-    a1 = np.where(on, decay_on, decay_off)
-    b1 = np.where(on, 1.0 - decay_on, 0.0)
-    decay2_on, decay2_off = np.exp(-second / actuator.tau_inflate), np.exp(-second / actuator.tau_vent)
-    a2 = np.where(on, decay2_off, decay2_on)  # the second segment is in the flipped state
-    b2 = np.where(on, 0.0, 1.0 - decay2_on)
-    a, b = a1 * a2, b1 * a2 + b2
-    return _affine_recurrence(np.asarray(pressure, dtype=float), a, b)
+    return _trajectory(np.asarray(pressure, dtype=float), np.asarray(phases, dtype=float), float(t0), float(tick),
+                       int(n_ticks), float(T), float(alpha), float(actuator.tau_inflate), float(actuator.tau_vent))
 
 
 @numba.njit(cache=True)
-def _affine_recurrence(p0, a, b):
-    """p_k = a_k p_{k-1} + b_k for every tick k (sequential: compiled, it costs nanoseconds a tick)."""
-    out = np.empty_like(a)
+def _trajectory(p0, phases, t0, tick, n_ticks, T, alpha, tau_inflate, tau_vent):
+    """Per tick and bellows: the time spent in the state the tick starts in, then in the other; each part maps
+    p -> target + (p - target) * decay, composed into one affine map, applied in sequence (compiled: a tick without
+    a switch, nearly all of them, costs one multiply-add)."""
+    n = len(phases)
+    out = np.empty((n_ticks, n))
     p = p0.copy()
-    for k in range(a.shape[0]):
-        for i in range(a.shape[1]):
-            p[i] = a[k, i] * p[i] + b[k, i]
+    whole_on, whole_off = np.exp(-tick / tau_inflate), np.exp(-tick / tau_vent)
+    for k in range(n_ticks):
+        start = t0 + tick * k
+        for i in range(n):
+            position = (start / T - phases[i]) % 1.0  # in cycles since the pump last switched on
+            on = position < alpha
+            first = min(((alpha - position) if on else (1.0 - position)) * T, tick)
+            if first == tick:
+                a, b = (whole_on, 1.0 - whole_on) if on else (whole_off, 0.0)
+            else:  # the pump switches inside this tick
+                second = tick - first
+                if on:
+                    decay, after = np.exp(-first / tau_inflate), np.exp(-second / tau_vent)
+                    a, b = decay * after, (1.0 - decay) * after
+                else:
+                    decay, after = np.exp(-first / tau_vent), np.exp(-second / tau_inflate)
+                    a, b = decay * after, 1.0 - after
+            p[i] = a * p[i] + b
             out[k, i] = p[i]
     return out

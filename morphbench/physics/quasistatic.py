@@ -71,6 +71,8 @@ class QuasiStaticWorld(QuasiStatic):
         # +1 where a link's front lies along +axis from its rear: its length is pitch + sign * (s_front - s_rear).
         self._sign = np.array([np.sign(np.dot(self._rest[f] - self._rest[r], self.axis)) for f, r in self._links])
         self._build_paths()
+        self._orientation = np.asarray(shape.orientation, dtype=float)
+        """every body's quaternion (x, y, z, w): bodies keep the shape's orientation."""
         self.time = 0.0
         """s, the pumps' clock (nothing needs settling: bodies start at rest on the ground)."""
 
@@ -116,7 +118,9 @@ class QuasiStaticWorld(QuasiStatic):
     def poses_of(self, states: np.ndarray, which) -> tuple[np.ndarray, np.ndarray]:
         index = np.asarray(which, dtype=int)
         positions = self._rest[index] + states[:, index, None] * self.axis
-        return positions, np.tile(self.shape.orientation, positions.shape[:2] + (1,))
+        orientations = np.empty(positions.shape[:2] + (4,))
+        orientations[...] = self._orientation
+        return positions, orientations
 
     def relax(self, extension, limits) -> None:
         """One tick: move the bodies to the minimiser of the incremental energy, given each bellows' extension
