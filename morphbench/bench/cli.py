@@ -1,7 +1,7 @@
 """The ``bench`` and ``report`` subcommands, added to the ``morphbench`` command by ``add_bench_commands``.
 
     morphbench bench SUITE --out DIR [--workers N | --scheduler ADDRESS] [--resume] [--retry-failed] [--quiet]
-    morphbench report DIR
+    morphbench report DIR [--compare A B]
 """
 
 from __future__ import annotations
@@ -44,6 +44,10 @@ def add_bench_commands(subparsers) -> None:
                                    description="Rebuild DIR's consolidated tables, metrics, figures and report.md "
                                                "from its finished runs (no simulation).")
     report.add_argument("dir", help="results directory written by 'morphbench bench'")
+    report.add_argument("--compare", nargs=2, metavar=("A", "B"),
+                        help="two results directories of one suite on different physics (e.g. paper-quick on "
+                             "PyBullet and on the quasi-static model, their reports built): compare them condition "
+                             "by condition into DIR/backends.parquet, which DIR's report shows from then on")
     report.set_defaults(func=cmd_report)
 
 
@@ -93,6 +97,11 @@ def cmd_report(args) -> int:
     if not os.path.isdir(args.dir):
         raise ConfigError("report", args.dir, "a results directory written by 'morphbench bench'"
                                               + (" (this is a file)" if os.path.exists(args.dir) else ""))
+    if args.compare:
+        from morphbench.bench.backends import TABLE, compare
+        from morphbench.bench.store import Store
+
+        Store(args.dir).write_table(TABLE, compare(*args.compare))
     path = build_report(args.dir)
     print(f"report in {path}")
     return 0

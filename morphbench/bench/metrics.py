@@ -149,7 +149,7 @@ def condition_metrics(steps: pd.DataFrame, runs: pd.DataFrame, scans: pd.DataFra
     """One row per condition of ``runs`` (see the module doc); ``steps`` and ``runs`` are the store's tables."""
     rows = []
     best = scan_best(scans) if scans is not None else {}
-    condition_cols = [c for c in runs.columns if c not in _RUN_ONLY]
+    condition_cols = condition_columns(runs)
     for condition_id, members in runs.groupby("condition_id", sort=False):
         row = members.iloc[0][condition_cols].to_dict()
         row["runs"] = len(members)
@@ -183,6 +183,11 @@ def condition_metrics(steps: pd.DataFrame, runs: pd.DataFrame, scans: pd.DataFra
                                    if row["scan_best_ubar"] > 0 else math.nan)
         rows.append({"condition_id": condition_id, **row})
     return pd.DataFrame(rows)
+
+
+def condition_columns(runs: pd.DataFrame) -> list[str]:
+    """The columns of the store's runs table that make a condition (a run's configuration without its seed)."""
+    return [c for c in runs.columns if c not in _RUN_ONLY]
 
 
 def _recovery(per_run: list[pd.DataFrame], column: str) -> dict[str, float]:

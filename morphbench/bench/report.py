@@ -28,6 +28,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from morphbench import plots  # noqa: E402
+from morphbench.bench import backends as B  # noqa: E402
 from morphbench.bench import metrics as M  # noqa: E402
 from morphbench.bench.store import Store  # noqa: E402
 from morphbench.files import write_text  # noqa: E402
@@ -79,6 +80,9 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
     for experiment in plan["experiments"]:
         lines += _experiment_section(experiment, metrics, curves, steps, figures, central)
     lines += _decentralization_section(metrics, steps, central)
+    backends = store.root / f"{B.TABLE}.parquet"
+    if backends.is_file():
+        lines += B.section(pd.read_parquet(backends))
     if plan["scans"]:
         lines += ["## Scans", ""]
         lines += _scan_section(plan, scans, figures)

@@ -1,0 +1,112 @@
+"""Two results directories of one suite run on different physics (e.g. ``benchmarks/paper-quick.toml`` on PyBullet
+and on the quasi-static model), condition by condition: what each backend gives and where they disagree.
+
+``compare(a, b)`` reads both directories' ``metrics.parquet`` (written by ``morphbench report``) and pairs the
+conditions that are equal in every condition column but ``physics`` (and the ids that hash it). Per pair and per
+compared metric (final Ubar, U_eq, steps to 0.8 U_eq, mean acceptance) it gives both values and the difference b - a.
+Final Ubar has a standard error over seeds in each directory; the pair **disagrees** when the difference exceeds
+``DISAGREE_SE`` combined standard errors, sqrt(std_a^2 / n_a + std_b^2 / n_b), so a difference that seed noise explains
+is not called one. ``morphbench report DIR --compare A B`` keeps the table as ``DIR/backends.parquet``, and the
+report of DIR shows it from then on (``section``).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from morphbench.bench import metrics as M
+from morphbench.errors import ConfigError
+from morphbench.files import is_file
+
+COMPARED = {"final_ubar": "final Ubar", "u_eq": "U_eq", "steps_to_threshold": f"steps to {M.THRESHOLD:g} U_eq",
+            "acceptance_mean": "acceptance"}
+"""metric column -> its name in the report."""
+DISAGREE_SE = 2.0
+"""combined standard errors of final Ubar beyond which two backends disagree on a condition."""
+TABLE = "backends"
+"""DIR/backends.parquet: the comparison a report shows."""
+_NOT_CONDITION = {"condition_id", "physics", "shape_id", "environment_id"}
+_LABEL_COLUMNS = ("experiments", "shape", "learner", "step_size", "noise", "environment", "events", "steps")
+
+
+def compare(a: str | Path, b: str | Path) -> pd.DataFrame:
+    """One row per condition found in both results directories (see the module doc)."""
+    (ma, ra), (mb, _) = _read(a), _read(b)
+    keys = [c for c in M.condition_columns(ra) if c in mb.columns and c not in _NOT_CONDITION]
+    ma = ma.assign(experiments=ma.condition_id.map(_experiments(ra)))
+    pairs = ma.merge(mb, on=keys, suffixes=("_a", "_b"))
+    table = pairs[[c for c in _LABEL_COLUMNS if c in pairs.columns]].copy()
+    table["physics_a"], table["physics_b"] = pairs.physics_a, pairs.physics_b
+    table["runs_a"], table["runs_b"] = pairs.runs_a - pairs.failed_a - pairs.missing_a, \
+        pairs.runs_b - pairs.failed_b - pairs.missing_b
+    for column in COMPARED:
+        table[f"{column}_a"], table[f"{column}_b"] = pairs[f"{column}_a"], pairs[f"{column}_b"]
+        table[f"{column}_diff"] = pairs[f"{column}_b"] - pairs[f"{column}_a"]
+    se = np.sqrt(pairs.final_ubar_std_a ** 2 / table.runs_a.clip(lower=1)
+                 + pairs.final_ubar_std_b ** 2 / table.runs_b.clip(lower=1))
+    table["final_ubar_se"] = se
+    table["disagree"] = table.final_ubar_diff.abs() > DISAGREE_SE * se
+    return table.reset_index(drop=True)
+
+
+def section(table: pd.DataFrame) -> list[str]:
+    """report.md lines: the comparison's table, and in words where the backends disagree."""
+    if table.empty:
+        return ["## Backends side by side", "", "The two results directories share no condition.", ""]
+    a, b = table.physics_a.iloc[0], table.physics_b.iloc[0]
+    lines = ["## Backends side by side", "",
+             f"The same suite on two physics backends, a = {a} and b = {b}, condition by condition: each metric as "
+             f"a / b (difference b - a). A condition **disagrees** when the final Ubars differ by more than "
+             f"{DISAGREE_SE:g} standard errors over seeds.", ""]
+    label = [c for c in _LABEL_COLUMNS if c in table.columns and (c == "experiments" or table[c].nunique() > 1)]
+    header = [*label, "runs", *COMPARED.values(), "disagree"]
+    lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for _, row in table.iterrows():
+        cells = [_text(row[c]) for c in label] + [f"{row.runs_a} / {row.runs_b}"]
+        for column in COMPARED:
+            digits = 1 if column == "steps_to_threshold" else 2
+            cells.append(f"{_num(row[f'{column}_a'], digits)} / {_num(row[f'{column}_b'], digits)} "
+                         f"({_num(row[f'{column}_diff'], digits, sign=True)})")
+        cells.append("**yes**" if row.disagree else "no")
+        lines.append("| " + " | ".join(cells) + " |")
+    lines.append("")
+    worse = table[table.disagree]
+    if worse.empty:
+        lines += [f"The backends agree on every one of the {len(table)} conditions within seed noise.", ""]
+    else:
+        where = "; ".join(f"{_text(row.get('experiments', ''))} {row.learner}: {row.final_ubar_a:.2f} against "
+                          f"{row.final_ubar_b:.2f} mm/cycle" for _, row in worse.iterrows())
+        lines += [f"They disagree on {len(worse)} of {len(table)} conditions: {where}.", ""]
+    return lines
+
+
+def _read(directory: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+    root = Path(directory)
+    tables = []
+    for name in ("metrics", "runs"):
+        path = root / f"{name}.parquet"
+        if not is_file(path):
+            raise ConfigError(str(root), f"{name}.parquet", "a results directory with its report built (morphbench "
+                              "bench, or morphbench report DIR)", "no such file")
+        tables.append(pd.read_parquet(path))
+    return tables[0], tables[1]
+
+
+def _experiments(runs: pd.DataFrame) -> dict[str, str]:
+    return runs.groupby("condition_id").experiments.first().to_dict()
+
+
+def _text(value) -> str:
+    if isinstance(value, (float, np.floating)):
+        return "-" if not math.isfinite(value) else f"{value:g}"
+    return str(value).replace("|", "\\|").replace("\n", " ") if value is not None else "-"
+
+
+def _num(value, digits: int, sign: bool = False) -> str:
+    if value is None or not math.isfinite(float(value)):
+        return "-"
+    return f"{value:+.{digits}f}" if sign else f"{value:.{digits}f}"

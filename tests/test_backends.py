@@ -1,0 +1,77 @@
+"""Two backends side by side: conditions paired across results directories, differences and disagreements."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from morphbench.bench import LocalExecutor, load_suite, run_suite
+from morphbench.bench.backends import TABLE, compare, section
+from morphbench.bench.report import build_report
+
+from conftest import TINY, run_cli, write_suite
+
+
+@pytest.fixture(scope="module")
+def two_backends(tmp_path_factory):
+    """The tiny suite on the quasi-static preset and on PyBullet (fast), each with its report built."""
+    directory = tmp_path_factory.mktemp("backends")
+    suite_path = write_suite(directory, TINY)
+    outs = []
+    for physics in ("quasistatic", "fast"):
+        out = directory / physics
+        run_suite(load_suite(suite_path, physics=physics), out, LocalExecutor(2), progress=False)
+        build_report(out)
+        outs.append(out)
+    return outs
+
+
+def test_conditions_pair_across_backends(two_backends):
+    table = compare(*two_backends)
+    assert len(table) == 4  # two learners x two noise levels, each on both backends
+    assert set(table.physics_a) == {"quasistatic"} and set(table.physics_b) == {"fast"}
+    assert (table.runs_a == 2).all() and (table.runs_b == 2).all()
+    np.testing.assert_allclose(table.final_ubar_diff, table.final_ubar_b - table.final_ubar_a)
+    assert set(table.experiments) == {"pair"}
+
+
+def metrics_dir(path, final_ubar, std, runs=10, physics="quasistatic"):
+    """A results directory holding only the tables compare reads: one condition per value."""
+    path.mkdir()
+    ids = [f"c{i}" for i in range(len(final_ubar))]
+    conditions = {"condition_id": ids, "shape": "chain-3", "learner": [f"l{i}" for i in range(len(ids))],
+                  "physics": physics}
+    pd.DataFrame({**conditions, "experiments": "E", "run_id": ids, "seed": 0, "status": "done"}).to_parquet(
+        path / "runs.parquet")
+    nan = np.full(len(ids), np.nan)
+    pd.DataFrame({**conditions, "runs": runs, "failed": 0, "missing": 0, "final_ubar": final_ubar,
+                  "final_ubar_std": std, "u_eq": final_ubar, "steps_to_threshold": nan,
+                  "acceptance_mean": 0.25}).to_parquet(path / "metrics.parquet")
+    return path
+
+
+def test_a_difference_beyond_two_standard_errors_disagrees(tmp_path):
+    """std 1 over 100 runs on each side: the combined standard error is sqrt(2) / 10 = 0.141, so 0.2 is within
+    two of it and 0.4 is not."""
+    a = metrics_dir(tmp_path / "a", [1.0, 1.0], [1.0, 1.0], runs=100)
+    b = metrics_dir(tmp_path / "b", [1.2, 1.4], [1.0, 1.0], runs=100, physics="fast")
+    table = compare(a, b).set_index("learner")
+    assert table.final_ubar_se.to_numpy() == pytest.approx(np.sqrt(2) / 10)
+    assert not table.disagree["l0"] and table.disagree["l1"]
+    text = "\n".join(section(table.reset_index()))
+    assert "disagree on 1 of 2 conditions" in text and "1.00 against 1.40" in text
+
+
+def test_report_shows_the_comparison_it_was_given(two_backends, capsys):
+    results = two_backends[0]
+    code, _, err = run_cli(capsys, "report", str(results), "--compare", *map(str, two_backends))
+    assert code == 0, err
+    assert (results / f"{TABLE}.parquet").is_file()
+    assert "## Backends side by side" in (results / "report.md").read_text()
+    code, _, _ = run_cli(capsys, "report", str(results))  # kept from then on
+    assert code == 0 and "## Backends side by side" in (results / "report.md").read_text()
+
+
+def test_a_directory_without_metrics_is_a_clear_error(two_backends, tmp_path, capsys):
+    code, _, err = run_cli(capsys, "report", str(two_backends[0]), "--compare", str(tmp_path), str(two_backends[1]))
+    assert code == 2
+    assert "metrics.parquet" in err and str(tmp_path) in err and "Traceback" not in err
