@@ -54,6 +54,8 @@ class Bellows:
         self._friction_scale = environment.friction_scale
         self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
         self._base_friction = np.array([body.friction for body in shape.bodies])
+        self._weights = np.array([body.mass * GRAVITY for body in shape.bodies])
+        """N, each body's weight."""
         self._unit_bodies = np.array(shape.units, dtype=int)
 
     def set_phases(self, phases) -> None:
@@ -217,12 +219,13 @@ class QuasiStatic(Bellows):
         start = self.time
         trajectory = self._pressures(start, n_ticks, pumps)
         lengths = self._rest_lengths(trajectory)  # (n_ticks, n_links)
-        n_bodies = len(self.shape.bodies)
-        friction = np.broadcast_to(self._base_friction * self._friction_scale, (n_ticks, n_bodies)).copy()
+        friction = self._base_friction * self._friction_scale
         if pumps and self.environment.vibration != 1.0:
-            pumping = self._pumping(start, n_ticks)
-            friction[:, self._unit_bodies] *= np.where(pumping, self.environment.vibration, 1.0)
-        limits = friction * np.array([body.mass * GRAVITY for body in self.shape.bodies])
+            friction = np.repeat(friction[None], n_ticks, axis=0)
+            friction[:, self._unit_bodies] *= np.where(self._pumping(start, n_ticks), self.environment.vibration, 1.0)
+            limits = friction * self._weights
+        else:
+            limits = np.broadcast_to(friction * self._weights, (n_ticks, len(friction)))
         breaks = set(range(every, n_ticks + 1, every)) if on_tick is not None else set()
         field_ticks = set(range(0, n_ticks, max(1, round(FIELD_UPDATE_PERIOD / self.tick)))) if self._field else set()
         breaks |= field_ticks
@@ -232,8 +235,8 @@ class QuasiStatic(Bellows):
             if begin in field_ticks:
                 xy = self.poses()[0][:, :2]
                 factor = self._field.friction(1.0, xy[:, 0], xy[:, 1])
-            self.relax_ticks(lengths[begin:end], limits[begin:end] * factor,
-                             None if record is None else record[begin:end], states)
+            segment = limits[begin:end] if self._field is None else limits[begin:end] * factor
+            self.relax_ticks(lengths[begin:end], segment, None if record is None else record[begin:end], states)
             if on_tick is not None and end % every == 0:
                 self.pressure, self.time = trajectory[end - 1], start + end * self.tick
                 on_tick(end - 1)

@@ -138,19 +138,23 @@ class QuasiStaticWorld(QuasiStatic):
 def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inverse_k, cap, record, states):
     """Advance the displacements ``s`` (in place) through the ticks of ``extension`` / ``limits``: one exact solve
     of the incremental energy per tick and piece; after tick t, ``s`` is copied to ``states[record[t]]`` if
-    ``record[t]`` >= 0."""
+    ``record[t]`` >= 0.
+
+    Each body's graph is built in one pass over the incoming one, and clipped and passed through its spring in a
+    second: O(n^2) per tick for n bodies, with the smallest constant (two passes over the breakpoints per body)."""
     n = len(order)
     width = 2 * n + 4
-    xs = np.empty((n, width))  # breakpoints (x, s) of each body's subgradient graph, before passing it on
+    xs = np.empty((n, width))  # breakpoints (x, s) of each body's subgradient graph, its own friction added
     ss = np.empty((n, width))
-    us = np.empty((n, width))  # where each breakpoint lands once passed through the spring (backtracking)
+    cx = np.empty((n, width))  # the same clipped at the force cap (x, s), and where each lands through the spring (u)
+    cs = np.empty((n, width))
+    cu = np.empty((n, width))
     counts = np.empty(n, dtype=np.int64)
+    clipped = np.empty(n, dtype=np.int64)
     clip_lo = np.empty(n, dtype=np.bool_)
     clip_hi = np.empty(n, dtype=np.bool_)
-    cs = np.empty(n)
+    offsets = np.empty(n)
     d = np.empty(n)
-    bx = np.empty(width)
-    bs = np.empty(width)
     for t in range(extension.shape[0]):
         for p in range(len(starts) - 1):
             a, b = starts[p], starts[p + 1]
@@ -163,15 +167,15 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inve
                     xs[i, 0], ss[i, 0], xs[i, 1], ss[i, 1] = 0.0, -w, 0.0, w
                     counts[i] = 2
                 else:
-                    # The incoming message's derivative at 0, then a jump of 2 w there.
+                    # The incoming message's graph (points (pu, ps), horizontal rays at both ends), with a jump of
+                    # 2 w inserted at 0.
                     k = 0
-                    cnt = counts[i - 1]
-                    pu = us[i - 1]
-                    ps = ss[i - 1]
-                    # incoming graph: points (pu, ps) (already transformed), horizontal rays at both ends
+                    cnt = clipped[i - 1]
+                    pu = cu[i - 1]
+                    ps = cs[i - 1]
                     j = 0
                     while j < cnt and pu[j] < 0.0:
-                        bx[k], bs[k] = pu[j], ps[j] - w
+                        xs[i, k], ss[i, k] = pu[j], ps[j] - w
                         k += 1
                         j += 1
                     if j < cnt and pu[j] == 0.0:
@@ -188,22 +192,20 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inve
                             x0, x1 = pu[j - 1], pu[j]
                             lo = ps[j - 1] + (ps[j] - ps[j - 1]) * (0.0 - x0) / (x1 - x0)
                         hi = lo
-                    bx[k], bs[k] = 0.0, lo - w
-                    bx[k + 1], bs[k + 1] = 0.0, hi + w
+                    xs[i, k], ss[i, k] = 0.0, lo - w
+                    xs[i, k + 1], ss[i, k + 1] = 0.0, hi + w
                     k += 2
                     while j < cnt:
-                        bx[k], bs[k] = pu[j], ps[j] + w
+                        xs[i, k], ss[i, k] = pu[j], ps[j] + w
                         k += 1
                         j += 1
-                    for q in range(k):
-                        xs[i, q], ss[i, q] = bx[q], bs[q]
                     counts[i] = k
                 if i == m - 1:
                     break
                 # Pass F_i through spring i: clip at the force cap, then map x -> x - c + s / k.
                 link = pair_link[a + i]
                 c = pair_sign[a + i] * extension[t, link] - (s[body] - s[order[a + i + 1]])
-                cs[i] = c
+                offsets[i] = c
                 cnt = counts[i]
                 k = 0
                 clip_lo[i] = ss[i, 0] < -cap
@@ -213,21 +215,20 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inve
                     if v < -cap:
                         if q + 1 < cnt and ss[i, q + 1] > -cap:  # the crossing of -cap
                             f = (-cap - v) / (ss[i, q + 1] - v)
-                            bx[k], bs[k] = x + f * (xs[i, q + 1] - x), -cap
+                            x = x + f * (xs[i, q + 1] - x)
+                            cx[i, k], cs[i, k], cu[i, k] = x, -cap, x - c + -cap * inverse_k
                             k += 1
                         continue
                     if v > cap:
                         if q > 0 and ss[i, q - 1] < cap:
                             f = (cap - ss[i, q - 1]) / (v - ss[i, q - 1])
-                            bx[k], bs[k] = xs[i, q - 1] + f * (x - xs[i, q - 1]), cap
+                            x = xs[i, q - 1] + f * (x - xs[i, q - 1])
+                            cx[i, k], cs[i, k], cu[i, k] = x, cap, x - c + cap * inverse_k
                             k += 1
                         break
-                    bx[k], bs[k] = x, v
+                    cx[i, k], cs[i, k], cu[i, k] = x, v, x - c + v * inverse_k
                     k += 1
-                for q in range(k):
-                    xs[i, q], ss[i, q] = bx[q], bs[q]
-                    us[i, q] = bx[q] - c + bs[q] * inverse_k
-                counts[i] = k
+                clipped[i] = k
             # The last body: where its subgradient graph crosses 0 (the point of the zero set nearest no motion).
             i = m - 1
             cnt = counts[i]
@@ -250,18 +251,18 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inve
             # Backward: body i's displacement from body i + 1's, through the map x -> u of spring i.
             for i in range(m - 2, -1, -1):
                 y = d[i + 1]
-                cnt = counts[i]
-                if y <= us[i, 0]:
-                    d[i] = xs[i, 0] if clip_lo[i] else y + cs[i] - ss[i, 0] * inverse_k
-                elif y >= us[i, cnt - 1]:
-                    d[i] = xs[i, cnt - 1] if clip_hi[i] else y + cs[i] - ss[i, cnt - 1] * inverse_k
+                cnt = clipped[i]
+                if y <= cu[i, 0]:
+                    d[i] = cx[i, 0] if clip_lo[i] else y + offsets[i] - cs[i, 0] * inverse_k
+                elif y >= cu[i, cnt - 1]:
+                    d[i] = cx[i, cnt - 1] if clip_hi[i] else y + offsets[i] - cs[i, cnt - 1] * inverse_k
                 else:
                     q = 1
-                    while us[i, q] < y:
+                    while cu[i, q] < y:
                         q += 1
-                    u0, u1 = us[i, q - 1], us[i, q]
+                    u0, u1 = cu[i, q - 1], cu[i, q]
                     f = 0.0 if u1 == u0 else (y - u0) / (u1 - u0)
-                    d[i] = xs[i, q - 1] + f * (xs[i, q] - xs[i, q - 1])
+                    d[i] = cx[i, q - 1] + f * (cx[i, q] - cx[i, q - 1])
             for i in range(m):
                 s[order[a + i]] += d[i]
         if record[t] >= 0:

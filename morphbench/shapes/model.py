@@ -5,6 +5,7 @@ No simulator here: the physics package builds a world from a ``Shape``; transfor
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -72,7 +73,7 @@ class Shape:
     ground (counter-clockwise seen from above): bodies, links and heading keep their assembly-frame values and every
     world places them turned by ``yaw``, the bodies' own axes with them."""
 
-    @property
+    @functools.cached_property  # read in every learning step; a frozen Shape never changes it
     def units(self) -> tuple[int, ...]:
         """Body indices of the active units, in unit order (unit 1 first): the units that run a learner."""
         return tuple(i for i, body in enumerate(self.bodies) if not body.dummy)
