@@ -9,6 +9,7 @@ from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig, run, scan, velocity_at
 from morphbench.params import QUASISTATIC_PHYSICS, ActuatorParams, SensorParams
 from morphbench.physics import QuasiStaticWorld, make_world, pressure_trajectory
+from morphbench.physics import quasistatic as Q
 from morphbench.shapes import load_shape
 
 from conftest import SHAPES_DIR, chain
@@ -228,3 +229,38 @@ def test_the_papers_first_result_on_the_default_physics():
     assert np.median(first) <= 20, first
     assert np.sum(np.array(first) <= 60) >= 30, first
     assert np.mean(hold) >= 0.55, np.mean(hold)
+
+
+def solve(s, extension, limits, order, starts, pair_link, pair_sign, k, cap, guess_from):
+    n = len(s)
+    Q._solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, k, cap,
+                   np.full(len(extension), -1, dtype=np.int64), np.empty((0, n)), np.zeros(n, dtype=np.int64),
+                   np.zeros(n, dtype=np.int64), guess_from, 0, 0, np.zeros((0, 4)), np.zeros(3), np.ones(n),
+                   np.zeros((n, 2)), np.zeros(2))
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_guessed_patterns_give_the_programmes_minimiser(seed):
+    """Ticks settled by a guessed pattern (the active set, tried on pieces of any size) end where the dynamic
+    programme alone ends, to rounding, on random pieces, extensions, friction (some bodies without any), stiffness
+    and force caps."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 25))
+    cuts = sorted(set(rng.integers(1, n, size=int(rng.integers(0, 3))))) if n > 1 else []
+    starts = np.array([0, *cuts, n], dtype=np.int64)
+    order = rng.permutation(n).astype(np.int64)
+    pair_link, pair_sign = np.full(n, -1, dtype=np.int64), np.zeros(n)
+    for p in range(len(starts) - 1):
+        for i in range(starts[p], starts[p + 1] - 1):
+            pair_link[i], pair_sign[i] = rng.integers(0, n), rng.choice([-1.0, 1.0])
+    ticks = int(rng.integers(1, 300))
+    extension = np.cumsum(rng.normal(0, 3e-4, (ticks, n)), axis=0)  # smooth, as pressures are
+    limits = np.repeat(rng.random((1, n)) * rng.choice([0.01, 0.3, 3.0]), ticks, axis=0)
+    if seed % 4 == 0:
+        limits[:, rng.integers(0, n)] = 0.0
+    k, cap = float(rng.choice([30.0, 300.0, 1e7])), float(rng.choice([0.05, 0.5, 5.0, 1e9]))
+    start = rng.normal(0, 0.01, n)
+    expected, got = start.copy(), start.copy()
+    solve(expected, extension, limits, order, starts, pair_link, pair_sign, k, cap, guess_from=n + 1)
+    solve(got, extension, limits, order, starts, pair_link, pair_sign, k, cap, guess_from=1)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-15)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from morphbench.params import DAMAGE_MODES, EnvironmentParams
-from morphbench.physics.friction import FrictionField
+from morphbench.physics.friction import NO_FIELD, FrictionField
 from morphbench.physics.pressure import pressure_trajectory
 from morphbench.shapes.checks import connected_groups
 from morphbench.shapes.model import Shape
@@ -53,6 +53,7 @@ class Bellows:
         self._extends = self._extending()
         self._friction_scale = environment.friction_scale
         self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
+        self._field_modes = NO_FIELD if self._field is None else self._field.compiled()
         self._base_friction = np.array([body.friction for body in shape.bodies])
         self._weights = np.array([body.mass * GRAVITY for body in shape.bodies])
         """N, each body's weight."""
@@ -169,18 +170,32 @@ class QuasiStatic(Bellows):
 
     state: np.ndarray
     """each body's coordinates (a subclass's own layout)."""
+    _factor: np.ndarray
+    """each body's friction field factor at its last reading (the solvers read the field every FIELD_UPDATE_PERIOD
+    from the start of an advance, and keep it in between)."""
 
-    def relax_ticks(self, lengths, limits, record=None, states=None) -> None:
+    def __init__(self, shape: Shape, environment: EnvironmentParams):
+        super().__init__(shape, environment)
+        self._factor = np.ones(len(shape.bodies))
+
+    def relax_ticks(self, lengths, limits, record=None, states=None, first_tick: int | None = None) -> None:
         """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``
-        (n_ticks, n_bodies) each body's friction limit (N). After tick t, if ``record[t]`` >= 0, the state is
-        copied into row ``record[t]`` of ``states`` (from ``new_states``)."""
+        (n_ticks, n_bodies) each body's friction limit (N) on a uniform ground. After tick t, if ``record[t]`` >= 0,
+        the state is copied into row ``record[t]`` of ``states`` (from ``new_states``). With ``first_tick`` (the
+        index of the first row among the ticks of an ``advance``), the limits are scaled by the friction field at
+        the bodies' places, read again every FIELD_UPDATE_PERIOD from the start of the advance."""
         lengths, limits = np.asarray(lengths, dtype=float), np.asarray(limits, dtype=float)
         if record is None:
             record, states = np.full(len(lengths), -1, dtype=np.int64), self.new_states(0)
-        self._solve(lengths, limits, record, states)
+        field, every = NO_FIELD, 0
+        if first_tick is not None and self._field is not None:
+            field, every = self._field_modes, max(1, round(FIELD_UPDATE_PERIOD / self.tick))
+        self._solve(lengths, limits, record, states, first_tick or 0, every, *field)
 
-    def _solve(self, lengths: np.ndarray, limits: np.ndarray, record: np.ndarray, states: np.ndarray) -> None:
-        """``relax_ticks`` with every argument given (the subclass's compiled solver)."""
+    def _solve(self, lengths: np.ndarray, limits: np.ndarray, record: np.ndarray, states: np.ndarray,
+               first_tick: int, field_every: int, modes: np.ndarray, constants: np.ndarray) -> None:
+        """``relax_ticks`` with every argument given (the subclass's compiled solver; the field as
+        ``friction.factors`` takes it, read when (first_tick + t) is a multiple of field_every > 0)."""
         raise NotImplementedError
 
     def poses_of(self, states: np.ndarray, which) -> tuple[np.ndarray, np.ndarray]:
@@ -212,8 +227,8 @@ class QuasiStatic(Bellows):
 
     def _advance(self, n_ticks: int, on_tick, pumps: bool, every: int, record=None, states=None) -> None:
         """``advance`` of a quasi-static world: pressures, rest lengths and friction limits for the coming ticks,
-        then ``relax_ticks`` over segments that end where a callback is due or the friction field is read again at
-        the bodies' new places (``record`` and ``states`` as there)."""
+        then ``relax_ticks`` over segments that end where a callback is due (``record`` and ``states`` as there);
+        the solver reads the friction field at the bodies' places itself."""
         if n_ticks <= 0:
             return
         start = self.time
@@ -226,17 +241,11 @@ class QuasiStatic(Bellows):
             limits = friction * self._weights
         else:
             limits = np.broadcast_to(friction * self._weights, (n_ticks, len(friction)))
-        breaks = set(range(every, n_ticks + 1, every)) if on_tick is not None else set()
-        field_ticks = set(range(0, n_ticks, max(1, round(FIELD_UPDATE_PERIOD / self.tick)))) if self._field else set()
-        breaks |= field_ticks
-        breaks.add(n_ticks)
-        begin, factor = 0, 1.0
-        for end in sorted(b for b in breaks if b > 0):
-            if begin in field_ticks:
-                xy = self.poses()[0][:, :2]
-                factor = self._field.friction(1.0, xy[:, 0], xy[:, 1])
-            segment = limits[begin:end] if self._field is None else limits[begin:end] * factor
-            self.relax_ticks(lengths[begin:end], segment, None if record is None else record[begin:end], states)
+        ends = list(range(every, n_ticks, every)) + [n_ticks] if on_tick is not None else [n_ticks]
+        begin = 0
+        for end in ends:
+            self.relax_ticks(lengths[begin:end], limits[begin:end], None if record is None else record[begin:end],
+                             states, first_tick=begin)
             if on_tick is not None and end % every == 0:
                 self.pressure, self.time = trajectory[end - 1], start + end * self.tick
                 on_tick(end - 1)

@@ -1,7 +1,9 @@
-"""Position-dependent ground friction: a smooth periodic random field f with values in [-1, 1] (pure numpy)."""
+"""Position-dependent ground friction: a smooth periodic random field f with values in [-1, 1] (numpy, and a
+compiled twin for the quasi-static solvers' tick loops)."""
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from morphbench.params import FrictionFieldParams
@@ -50,3 +52,24 @@ class FrictionField:
     def friction(self, mu0, x, y) -> np.ndarray:
         """mu(x, y) = mu0 (1 + amplitude f(x, y))."""
         return np.asarray(mu0) * (1.0 + self.params.amplitude * self(x, y))
+
+    def compiled(self) -> tuple[np.ndarray, np.ndarray]:
+        """The field as ``factors`` takes it: (modes, 4) rows kx, ky, amplitude, phase, and the constants
+        2 pi / period, scale and the friction amplitude."""
+        modes = np.column_stack([self._k, self._amplitude, self._theta])
+        return modes, np.array([2 * np.pi / self.params.period, self._scale, self.params.amplitude])
+
+
+NO_FIELD = (np.zeros((0, 4)), np.zeros(3))
+"""``FrictionField.compiled`` of a uniform ground (no modes: every factor is 1)."""
+
+
+@numba.njit(cache=True)
+def factors(x, y, modes, constants, out):
+    """``FrictionField.friction(1, x, y)`` into ``out``, one point at a time (for compiled loops)."""
+    wave, scale, amplitude = constants[0], constants[1], constants[2]
+    for b in range(len(x)):
+        total = 0.0
+        for m in range(modes.shape[0]):
+            total += np.cos(wave * (x[b] * modes[m, 0] + y[b] * modes[m, 1]) + modes[m, 3]) * modes[m, 2]
+        out[b] = 1.0 + amplitude * (scale * total)

@@ -28,6 +28,7 @@ import numpy as np
 from morphbench.errors import ConfigError
 from morphbench.params import EnvironmentParams, PhysicsParams
 from morphbench.physics.bellows import QuasiStatic
+from morphbench.physics.friction import factors
 from morphbench.shapes.model import Shape
 
 _FLAT_TOLERANCE = 1e-9  # m: bodies whose centres differ in height by more than this are not on one layer
@@ -86,10 +87,10 @@ class PlanarWorld(QuasiStatic):
     def state(self) -> np.ndarray:
         return self.q
 
-    def _solve(self, lengths, limits, record, states) -> None:
+    def _solve(self, lengths, limits, record, states, first_tick, field_every, modes, constants) -> None:
         total, failed = _solve_ticks(self.q, self._last, lengths, limits, self._front, self._rear, self._plane_axes,
                                      self.intact, self._stiffness, self.shape.actuator.max_force, self._rho, record,
-                                     states)
+                                     states, first_tick, field_every, modes, constants, self._factor)
         self.newton_steps += total
         self.unconverged_ticks += failed
 
@@ -315,10 +316,12 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
 
 
 @numba.njit(cache=True)
-def _solve_ticks(q, last, lengths, limits, front, rear, axes, intact, stiffness, cap, rho, record, states):
+def _solve_ticks(q, last, lengths, limits, front, rear, axes, intact, stiffness, cap, rho, record, states,
+                 first_tick, field_every, modes, constants, factor):
     """Advance the poses ``q`` (n, 3, in place) through the ticks of ``lengths`` / ``limits``; ``last`` holds the
     previous increments, each tick's first guess. After tick t, ``q`` is copied to ``states[record[t]]`` if
-    ``record[t]`` >= 0."""
+    ``record[t]`` >= 0. The limits are scaled by the friction field (``friction.factors``) at the bodies' places,
+    read into ``factor`` (kept between calls) when first_tick + t is a multiple of field_every > 0."""
     n = q.shape[0]
     u = np.empty(3 * n)
     scale = np.ones(3 * n)  # the friction metric: (1, 1, rho) per body
@@ -326,11 +329,16 @@ def _solve_ticks(q, last, lengths, limits, front, rear, axes, intact, stiffness,
     vectors = [np.empty(3 * n) for _ in range(6)]
     hess, t_hess = np.empty((3 * n, 3 * n)), np.empty((3 * n, 3 * n))
     total, failed = 0, 0
+    w = np.empty(n)
     for t in range(lengths.shape[0]):
+        if field_every > 0 and (first_tick + t) % field_every == 0:
+            factors(q[:, 0].copy(), q[:, 1].copy(), modes, constants, factor)
+        for i in range(n):
+            w[i] = limits[t, i] * factor[i] if field_every > 0 else limits[t, i]
         for i in range(n):
             for j in range(3):
                 u[3 * i + j] = last[i, j]
-        iterations = _solve_tick(q, u, lengths[t], limits[t], front, rear, axes, intact, stiffness, cap, scale,
+        iterations = _solve_tick(q, u, lengths[t], w, front, rear, axes, intact, stiffness, cap, scale,
                                  vectors[0], hess, vectors[1], vectors[2], vectors[3], t_hess, vectors[4], vectors[5])
         if iterations < 0:
             failed += 1

@@ -24,6 +24,7 @@ import numpy as np
 from morphbench.errors import ConfigError
 from morphbench.params import EnvironmentParams, PhysicsParams
 from morphbench.physics.bellows import QuasiStatic
+from morphbench.physics.friction import factors
 from morphbench.shapes.model import Shape
 
 _AXIS_TOLERANCE = 1e-9  # links whose directions differ by more than this are not on one axis
@@ -71,6 +72,8 @@ class QuasiStaticWorld(QuasiStatic):
         # +1 where a link's front lies along +axis from its rear: its length is pitch + sign * (s_front - s_rear).
         self._sign = np.array([np.sign(np.dot(self._rest[f] - self._rest[r], self.axis)) for f, r in self._links])
         self._build_paths()
+        self._rest_xy = np.ascontiguousarray(self._rest[:, :2])
+        self._axis_xy = np.ascontiguousarray(self.axis[:2])
         self._orientation = np.asarray(shape.orientation, dtype=float)
         """every body's quaternion (x, y, z, w): bodies keep the shape's orientation."""
         self.time = 0.0
@@ -105,15 +108,22 @@ class QuasiStaticWorld(QuasiStatic):
         self._starts = np.array(starts, dtype=np.int64)
         self._pair_link = np.array(pair_link, dtype=np.int64)
         self._pair_sign = np.array(pair_sign, dtype=float)
+        self._sliding = np.zeros(len(order), dtype=np.int64)
+        """by place along the paths, how each body moved in the last tick (+1, -1, 0 at rest): the next tick's
+        first guess (see ``_solve_ticks``)."""
+        self._capped = np.zeros(len(order), dtype=np.int64)
+        """by place along the paths, whether the spring after each body was at +cap, -cap (+1, -1) or not (0)."""
 
     @property
     def state(self) -> np.ndarray:
         return self.s
 
-    def _solve(self, lengths, limits, record, states) -> None:
+    def _solve(self, lengths, limits, record, states, first_tick, field_every, modes, constants) -> None:
         actuator = self.shape.actuator
         _solve_ticks(self.s, lengths - self._empty_pitch, limits, self._order, self._starts, self._pair_link,
-                     self._pair_sign, 1.0 / actuator.stiffness, actuator.max_force, record, states)
+                     self._pair_sign, actuator.stiffness, actuator.max_force, record, states, self._sliding,
+                     self._capped, PATTERN_MIN_BODIES, first_tick, field_every, modes, constants, self._factor,
+                     self._rest_xy, self._axis_xy)
 
     def poses_of(self, states: np.ndarray, which) -> tuple[np.ndarray, np.ndarray]:
         index = np.asarray(which, dtype=int)
@@ -135,13 +145,19 @@ class QuasiStaticWorld(QuasiStatic):
 
 
 @numba.njit(cache=True)
-def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inverse_k, cap, record, states):
+def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, stiffness, cap, record, states, sigma,
+                 capped, guess_from, first_tick, field_every, modes, constants, factor, rest_xy, axis_xy):
     """Advance the displacements ``s`` (in place) through the ticks of ``extension`` / ``limits``: one exact solve
     of the incremental energy per tick and piece; after tick t, ``s`` is copied to ``states[record[t]]`` if
-    ``record[t]`` >= 0.
+    ``record[t]`` >= 0. The limits are scaled by the friction field (``friction.factors``) at the bodies' places,
+    read into ``factor`` (kept between calls) when first_tick + t is a multiple of field_every > 0 (places:
+    ``rest_xy`` + s ``axis_xy``).
 
-    Each body's graph is built in one pass over the incoming one, and clipped and passed through its spring in a
-    second: O(n^2) per tick for n bodies, with the smallest constant (two passes over the breakpoints per body)."""
+    In a piece of at least ``guess_from`` bodies, each tick first tries the previous tick's pattern (``sigma``:
+    which bodies slide, and which way; ``capped``: which bellows are at their force cap, both by place along the
+    path): with it the minimiser solves one tridiagonal system, and it is the exact one if it meets every optimality
+    condition (``_try_pattern``). Otherwise, and in smaller pieces, the dynamic programme on the derivative of the
+    energy finds it, and its pattern is kept for the next tick's guess."""
     n = len(order)
     width = 2 * n + 4
     xs = np.empty((n, width))  # breakpoints (x, s) of each body's subgradient graph, its own friction added
@@ -155,115 +171,223 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, inve
     clip_hi = np.empty(n, dtype=np.bool_)
     offsets = np.empty(n)
     d = np.empty(n)
+    work = np.empty((5, n))
+    inverse_k = 1.0 / stiffness
+    n_bodies = len(s)
+    at_x, at_y = np.empty(n_bodies), np.empty(n_bodies)  # the bodies' places where the field is read
+    w = np.empty(n_bodies)
     for t in range(extension.shape[0]):
+        if field_every > 0 and (first_tick + t) % field_every == 0:
+            for body in range(n_bodies):
+                at_x[body] = rest_xy[body, 0] + s[body] * axis_xy[0]
+                at_y[body] = rest_xy[body, 1] + s[body] * axis_xy[1]
+            factors(at_x, at_y, modes, constants, factor)
+        for body in range(n_bodies):
+            w[body] = limits[t, body] * factor[body] if field_every > 0 else limits[t, body]
         for p in range(len(starts) - 1):
             a, b = starts[p], starts[p + 1]
             m = b - a
-            # Forward: F_0 = w_0 |x|; F_{i+1}(y) = min_x F_i(x) + H(x - y - c_i) + w_{i+1} |y|.
-            for i in range(m):
-                body = order[a + i]
-                w = limits[t, body]
-                if i == 0:
-                    xs[i, 0], ss[i, 0], xs[i, 1], ss[i, 1] = 0.0, -w, 0.0, w
-                    counts[i] = 2
-                else:
-                    # The incoming message's graph (points (pu, ps), horizontal rays at both ends), with a jump of
-                    # 2 w inserted at 0.
-                    k = 0
-                    cnt = clipped[i - 1]
-                    pu = cu[i - 1]
-                    ps = cs[i - 1]
-                    j = 0
-                    while j < cnt and pu[j] < 0.0:
-                        xs[i, k], ss[i, k] = pu[j], ps[j] - w
-                        k += 1
-                        j += 1
-                    if j < cnt and pu[j] == 0.0:
-                        lo = ps[j]
-                        while j < cnt and pu[j] == 0.0:
-                            hi = ps[j]
-                            j += 1
+            for i in range(m - 1):  # how far spring i (between the path's bodies i and i + 1) is from its rest
+                offsets[i] = (pair_sign[a + i] * extension[t, pair_link[a + i]]
+                              - (s[order[a + i]] - s[order[a + i + 1]]))
+            guess = m >= guess_from
+            solved = guess and _try_pattern(a, m, order, w, offsets, stiffness, cap, sigma, capped, d, work)
+            if not solved:  # the dynamic programme: exact, O(n^2) for n bodies (two passes over the breakpoints each)
+                # Forward: F_0 = w_0 |x|; F_{i+1}(y) = min_x F_i(x) + H(x - y - c_i) + w_{i+1} |y|.
+                for i in range(m):
+                    body = order[a + i]
+                    wi = w[body]
+                    if i == 0:
+                        xs[i, 0], ss[i, 0], xs[i, 1], ss[i, 1] = 0.0, -wi, 0.0, wi
+                        counts[i] = 2
                     else:
-                        if j == 0:
-                            lo = ps[0]
-                        elif j == cnt:
-                            lo = ps[cnt - 1]
+                        # The incoming message's graph (points (pu, ps), horizontal rays at both ends), with a jump of
+                        # 2 w inserted at 0.
+                        k = 0
+                        cnt = clipped[i - 1]
+                        pu = cu[i - 1]
+                        ps = cs[i - 1]
+                        j = 0
+                        while j < cnt and pu[j] < 0.0:
+                            xs[i, k], ss[i, k] = pu[j], ps[j] - wi
+                            k += 1
+                            j += 1
+                        if j < cnt and pu[j] == 0.0:
+                            lo = ps[j]
+                            while j < cnt and pu[j] == 0.0:
+                                hi = ps[j]
+                                j += 1
                         else:
-                            x0, x1 = pu[j - 1], pu[j]
-                            lo = ps[j - 1] + (ps[j] - ps[j - 1]) * (0.0 - x0) / (x1 - x0)
-                        hi = lo
-                    xs[i, k], ss[i, k] = 0.0, lo - w
-                    xs[i, k + 1], ss[i, k + 1] = 0.0, hi + w
-                    k += 2
-                    while j < cnt:
-                        xs[i, k], ss[i, k] = pu[j], ps[j] + w
+                            if j == 0:
+                                lo = ps[0]
+                            elif j == cnt:
+                                lo = ps[cnt - 1]
+                            else:
+                                x0, x1 = pu[j - 1], pu[j]
+                                lo = ps[j - 1] + (ps[j] - ps[j - 1]) * (0.0 - x0) / (x1 - x0)
+                            hi = lo
+                        xs[i, k], ss[i, k] = 0.0, lo - wi
+                        xs[i, k + 1], ss[i, k + 1] = 0.0, hi + wi
+                        k += 2
+                        while j < cnt:
+                            xs[i, k], ss[i, k] = pu[j], ps[j] + wi
+                            k += 1
+                            j += 1
+                        counts[i] = k
+                    if i == m - 1:
+                        break
+                    # Pass F_i through spring i: clip at the force cap, then map x -> x - c + s / k.
+                    c = offsets[i]
+                    cnt = counts[i]
+                    k = 0
+                    clip_lo[i] = ss[i, 0] < -cap
+                    clip_hi[i] = ss[i, cnt - 1] > cap
+                    for q in range(cnt):
+                        x, v = xs[i, q], ss[i, q]
+                        if v < -cap:
+                            if q + 1 < cnt and ss[i, q + 1] > -cap:  # the crossing of -cap
+                                f = (-cap - v) / (ss[i, q + 1] - v)
+                                x = x + f * (xs[i, q + 1] - x)
+                                cx[i, k], cs[i, k], cu[i, k] = x, -cap, x - c + -cap * inverse_k
+                                k += 1
+                            continue
+                        if v > cap:
+                            if q > 0 and ss[i, q - 1] < cap:
+                                f = (cap - ss[i, q - 1]) / (v - ss[i, q - 1])
+                                x = xs[i, q - 1] + f * (x - xs[i, q - 1])
+                                cx[i, k], cs[i, k], cu[i, k] = x, cap, x - c + cap * inverse_k
+                                k += 1
+                            break
+                        cx[i, k], cs[i, k], cu[i, k] = x, v, x - c + v * inverse_k
                         k += 1
-                        j += 1
-                    counts[i] = k
-                if i == m - 1:
-                    break
-                # Pass F_i through spring i: clip at the force cap, then map x -> x - c + s / k.
-                link = pair_link[a + i]
-                c = pair_sign[a + i] * extension[t, link] - (s[body] - s[order[a + i + 1]])
-                offsets[i] = c
+                    clipped[i] = k
+                # The last body: where its subgradient graph crosses 0 (the point of the zero set nearest no motion).
+                i = m - 1
                 cnt = counts[i]
-                k = 0
-                clip_lo[i] = ss[i, 0] < -cap
-                clip_hi[i] = ss[i, cnt - 1] > cap
-                for q in range(cnt):
-                    x, v = xs[i, q], ss[i, q]
-                    if v < -cap:
-                        if q + 1 < cnt and ss[i, q + 1] > -cap:  # the crossing of -cap
-                            f = (-cap - v) / (ss[i, q + 1] - v)
-                            x = x + f * (xs[i, q + 1] - x)
-                            cx[i, k], cs[i, k], cu[i, k] = x, -cap, x - c + -cap * inverse_k
-                            k += 1
-                        continue
-                    if v > cap:
-                        if q > 0 and ss[i, q - 1] < cap:
-                            f = (cap - ss[i, q - 1]) / (v - ss[i, q - 1])
-                            x = xs[i, q - 1] + f * (x - xs[i, q - 1])
-                            cx[i, k], cs[i, k], cu[i, k] = x, cap, x - c + cap * inverse_k
-                            k += 1
-                        break
-                    cx[i, k], cs[i, k], cu[i, k] = x, v, x - c + v * inverse_k
-                    k += 1
-                clipped[i] = k
-            # The last body: where its subgradient graph crosses 0 (the point of the zero set nearest no motion).
-            i = m - 1
-            cnt = counts[i]
-            lo_x, hi_x = -np.inf, np.inf
-            if ss[i, 0] < 0.0:
-                lo_x = np.inf
-                for q in range(1, cnt):
-                    if ss[i, q] >= 0.0:
-                        v0 = ss[i, q - 1]
-                        lo_x = xs[i, q - 1] + (xs[i, q] - xs[i, q - 1]) * (0.0 - v0) / (ss[i, q] - v0)
-                        break
-            if ss[i, cnt - 1] > 0.0:
-                hi_x = -np.inf
-                for q in range(cnt - 2, -1, -1):
-                    if ss[i, q] <= 0.0:
-                        v0 = ss[i, q + 1]
-                        hi_x = xs[i, q + 1] + (xs[i, q] - xs[i, q + 1]) * (0.0 - v0) / (ss[i, q] - v0)
-                        break
-            d[i] = min(max(0.0, lo_x), hi_x)
-            # Backward: body i's displacement from body i + 1's, through the map x -> u of spring i.
-            for i in range(m - 2, -1, -1):
-                y = d[i + 1]
-                cnt = clipped[i]
-                if y <= cu[i, 0]:
-                    d[i] = cx[i, 0] if clip_lo[i] else y + offsets[i] - cs[i, 0] * inverse_k
-                elif y >= cu[i, cnt - 1]:
-                    d[i] = cx[i, cnt - 1] if clip_hi[i] else y + offsets[i] - cs[i, cnt - 1] * inverse_k
-                else:
-                    q = 1
-                    while cu[i, q] < y:
-                        q += 1
-                    u0, u1 = cu[i, q - 1], cu[i, q]
-                    f = 0.0 if u1 == u0 else (y - u0) / (u1 - u0)
-                    d[i] = cx[i, q - 1] + f * (cx[i, q] - cx[i, q - 1])
+                lo_x, hi_x = -np.inf, np.inf
+                if ss[i, 0] < 0.0:
+                    lo_x = np.inf
+                    for q in range(1, cnt):
+                        if ss[i, q] >= 0.0:
+                            v0 = ss[i, q - 1]
+                            lo_x = xs[i, q - 1] + (xs[i, q] - xs[i, q - 1]) * (0.0 - v0) / (ss[i, q] - v0)
+                            break
+                if ss[i, cnt - 1] > 0.0:
+                    hi_x = -np.inf
+                    for q in range(cnt - 2, -1, -1):
+                        if ss[i, q] <= 0.0:
+                            v0 = ss[i, q + 1]
+                            hi_x = xs[i, q + 1] + (xs[i, q] - xs[i, q + 1]) * (0.0 - v0) / (ss[i, q] - v0)
+                            break
+                d[i] = min(max(0.0, lo_x), hi_x)
+                # Backward: body i's displacement from body i + 1's, through the map x -> u of spring i.
+                for i in range(m - 2, -1, -1):
+                    y = d[i + 1]
+                    cnt = clipped[i]
+                    if y <= cu[i, 0]:
+                        d[i] = cx[i, 0] if clip_lo[i] else y + offsets[i] - cs[i, 0] * inverse_k
+                    elif y >= cu[i, cnt - 1]:
+                        d[i] = cx[i, cnt - 1] if clip_hi[i] else y + offsets[i] - cs[i, cnt - 1] * inverse_k
+                    else:
+                        q = 1
+                        while cu[i, q] < y:
+                            q += 1
+                        u0, u1 = cu[i, q - 1], cu[i, q]
+                        f = 0.0 if u1 == u0 else (y - u0) / (u1 - u0)
+                        d[i] = cx[i, q - 1] + f * (cx[i, q] - cx[i, q - 1])
+            if guess and not solved:  # the programme's pattern is the next tick's guess
+                for i in range(m):
+                    sigma[a + i] = 0 if abs(d[i]) <= STUCK else (1 if d[i] > 0.0 else -1)
+                for i in range(m - 1):
+                    force = stiffness * (d[i] - d[i + 1] - offsets[i])
+                    capped[a + i] = 1 if force >= cap else (-1 if force <= -cap else 0)
             for i in range(m):
                 s[order[a + i]] += d[i]
         if record[t] >= 0:
             states[record[t]] = s
+
+
+STUCK = 1e-14
+"""m: a tick's displacement this small is a body at rest (the programme's rounding), not one sliding."""
+
+
+@numba.njit(cache=True, inline="always")  # a call would cost more than a small chain's solve
+def _try_pattern(a, m, order, limits, offsets, k, cap, sigma, capped, d, work):
+    """The minimiser of one piece's incremental energy, found from a guess of how it moves: into ``d``, True, when
+    found; False when ``PATTERN_TRIES`` guesses fail (``d`` then holds nothing useful).
+
+    A guess says which bodies slide and which way (``sigma``: +1, -1, 0 at rest) and which springs are at their force
+    cap (``capped``: +1, -1 at +-cap, 0 not). Sliding bodies balance their springs against their friction (sum of
+    spring forces = sigma w), bodies at rest have d = 0: a tridiagonal system in d, solved by elimination (an
+    M-matrix: no pivoting needed). Its solution is a minimiser if it meets every optimality condition: each
+    sliding body moves its way, each body at rest is held by its friction, each spring is capped exactly where the
+    guess says. Where one fails, the guess is mended there (a body moving against its way stops, a body its friction
+    no longer holds slides the way it is pushed, a spring crosses its cap) and tried again (a primal-dual active set
+    method). A group of sliding bodies that no resting body anchors through uncapped springs is singular: the
+    guess fails. So does a piece with a body without friction, which may leave the minimiser not unique (free between
+    two capped springs): the programme's choice among minimisers, the one nearest no motion, is kept."""
+    lower, diag, upper, rhs, force = work[0], work[1], work[2], work[3], work[4]
+    for i in range(m):
+        if not limits[order[a + i]] > 0.0:
+            return False
+    for _ in range(PATTERN_TRIES):
+        for i in range(m):
+            if sigma[a + i] == 0:
+                lower[i], diag[i], upper[i], rhs[i] = 0.0, 1.0, 0.0, 0.0
+                continue
+            # F_j = u_j k (d_j - d_j+1 - c_j) + C_j for spring j; body i slides when F_i-1 - F_i = sigma_i w_i,
+            # here as k (2 d_i - d_i-1 - d_i+1) = -sigma_i w_i - k c_i-1 + k c_i + C_i-1 - C_i (u = 1 both sides).
+            total = -sigma[a + i] * limits[order[a + i]]
+            lo = up = 0.0
+            if i > 0:
+                if capped[a + i - 1] == 0:
+                    lo = k
+                    total -= k * offsets[i - 1]
+                else:
+                    total += capped[a + i - 1] * cap
+            if i < m - 1:
+                if capped[a + i] == 0:
+                    up = k
+                    total += k * offsets[i]
+                else:
+                    total -= capped[a + i] * cap
+            lower[i], diag[i], upper[i], rhs[i] = -lo, lo + up, -up, total
+        for i in range(m):  # forward elimination
+            pivot = diag[i] - (lower[i] * upper[i - 1] if i > 0 else 0.0)
+            if not abs(pivot) > 1e-9 * k:
+                return False
+            upper[i] = upper[i] / pivot
+            rhs[i] = (rhs[i] - (lower[i] * rhs[i - 1] if i > 0 else 0.0)) / pivot
+        d[m - 1] = rhs[m - 1]
+        for i in range(m - 2, -1, -1):
+            d[i] = rhs[i] - upper[i] * d[i + 1]
+        met = True
+        for i in range(m - 1):
+            f = k * (d[i] - d[i + 1] - offsets[i])
+            state = capped[a + i]
+            force[i] = f if state == 0 else state * cap
+            if state == 0 and not abs(f) <= cap:
+                capped[a + i] = 1 if f > 0.0 else -1
+                met = False
+            elif (state == 1 and not f >= cap) or (state == -1 and not f <= -cap):
+                capped[a + i] = 0
+                met = False
+        for i in range(m):
+            if sigma[a + i] != 0:
+                if not sigma[a + i] * d[i] > 0.0:
+                    sigma[a + i] = 0
+                    met = False
+            else:
+                net = (force[i - 1] if i > 0 else 0.0) - (force[i] if i < m - 1 else 0.0)
+                if not abs(net) <= limits[order[a + i]]:
+                    sigma[a + i] = 1 if net > 0.0 else -1
+                    met = False
+        if met:
+            return True
+    return False
+
+
+PATTERN_TRIES = 4
+"""guesses a tick may try before the dynamic programme settles it."""
+PATTERN_MIN_BODIES = 6
+"""pieces with fewer bodies go straight to the programme, which is cheaper for them than a guess."""
