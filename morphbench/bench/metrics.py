@@ -11,7 +11,7 @@ Per condition (a run's configuration without its seed), over its seeds:
 - acceptance at the end (mean over the last 10% of steps) and over the whole run;
 - the assembly's velocity along its heading (each run's ``final_u_heading``) and its turning rate (each run's
   ``turning_rate_deg_per_cycle``, ``turning_rate``), mean and std over the finished runs that have them;
-- the best Ubar of the suite's scans of the same shape (same shape content, same physics, same ground: the
+- the best Ubar of the suite's healthy scans of the same shape (same shape content, same physics, same ground: the
   environment without its noise) and the fraction of it that learning reached (final Ubar / scan best);
 - for conditions with events, recovery from the first one: the steps each run takes, from the event's step, to
   regain ``RECOVERY_FRACTION`` of its pre-event level (its mean Ubar over the ``RECOVERY_WINDOW`` steps before the
@@ -216,14 +216,24 @@ def _over_runs(runs: pd.DataFrame, column: str) -> tuple[float, float]:
 
 
 def scan_best(scans: pd.DataFrame) -> dict[tuple, float]:
-    """The highest Ubar of any scan point, per (shape_id, physics, environment_id) (scans of results written before
-    scans had environments: the default ground)."""
+    """The highest Ubar of any healthy scan point, per (shape_id, physics, environment_id) (scans of results written
+    before scans had environments: the default ground). A damaged scan is left out: it says nothing of what the
+    healthy robot could do."""
+    scans = healthy_scans(scans)
     if scans is None or scans.empty:
         return {}
     scans = scans if "environment_id" in scans else scans.assign(environment_id=_default_ground())
     scans = scans.fillna({"environment_id": _default_ground()})
     grouped = scans.groupby(["shape_id", "physics", "environment_id"]).ubar.max()
     return {key: float(value) for key, value in grouped.items()}
+
+
+def healthy_scans(scans: pd.DataFrame | None) -> pd.DataFrame | None:
+    """The points of the scans of an undamaged assembly (``damage`` 'none'; all of them in results written before
+    scans could be damaged)."""
+    if scans is None or "damage" not in scans:
+        return scans
+    return scans[scans.damage.isna() | (scans.damage == "none")]
 
 
 @functools.cache
