@@ -1,16 +1,23 @@
-"""Scans of a damaged assembly and the scans of an experiment.
+"""The paper's figures in a suite's report: scans of a damaged assembly, the experiment's scans, the Ubar
+distribution, events, landscapes with trails, positions and scaling.
 
 One tiny suite on the quasi-static backend (runs of 10-16 steps, scans of 4 x 4 and 10 points) is run once for the
-module, in this process.
+module, in this process; the pure functions are checked on tables built by hand, whose answers are known.
 """
 
 from __future__ import annotations
+
+import math
+import re
+import shutil
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from morphbench.bench import load_suite, metrics as M, run_suite
+from morphbench.bench import build_report, load_suite, metrics as M, run_suite
+from morphbench.bench.report import _stretch
+from morphbench.bench.store import Store
 from morphbench.errors import ConfigError
 
 from conftest import SHAPES_DIR as SHAPES, write_suite
@@ -103,6 +110,12 @@ def results(tmp_path_factory):
     return suite, out
 
 
+@pytest.fixture(scope="module")
+def report(results):
+    """The text of the results' report.md (its figures in the results directory)."""
+    return build_report(results[1]).read_text()
+
+
 # --- scans of a damaged assembly and the scans of an experiment -------------------------------------------------
 
 
@@ -160,3 +173,119 @@ def test_an_experiments_scans_must_be_scans_of_the_suite(tmp_path):
     suite = load_suite(write_suite(tmp_path, text.replace('"S3", "S4"', '"S3"')))
     assert suite.experiments[0].scans == ("S3",) and list(suite.plan()["experiments"][0]["scans"]) == ["S3"]
     assert len(suite.runs) == 1  # not an axis
+
+
+def test_a_scan_describes_the_stretch_of_a_run_whose_world_it_measured():
+    steps = pd.DataFrame({"step": range(20), "event": [""] * 20})
+    assert _stretch(steps, "none") == (0, math.inf)
+    steps.loc[8, "event"] = "damage unit=2 mode=no-inflate"
+    assert _stretch(steps, "none") == (0, 8)
+    assert _stretch(steps, "damage unit=2 mode=no-inflate") == (8, math.inf)
+    assert _stretch(steps, "damage unit=3 mode=no-inflate") is None
+    steps.loc[12, "event"] = "friction scale=0.5"
+    assert _stretch(steps, "damage unit=2 mode=no-inflate") == (8, 12)
+
+
+# --- the tables the figures draw -------------------------------------------------------------------------------
+
+
+def test_the_ubar_distribution_is_a_fraction_of_the_runs_at_each_step():
+    steps = pd.DataFrame({"run_id": ["a", "b", "c", "d"] * 3, "step": np.repeat([0, 1, 2], 4),
+                          "ubar_true": [0.1, 0.2, 0.9, 5.0, -3.0, 0.5, 0.6, 0.7, 1.5, 1.5, 1.5, np.nan]})
+    k, fraction = M.ubar_distribution(steps, edges=[0.0, 1.0, 2.0])
+    assert list(k) == [0, 1, 2] and fraction.shape == (2, 3)
+    np.testing.assert_allclose(fraction.sum(axis=0), 1.0)  # values beyond the edges count in the end bins
+    np.testing.assert_allclose(fraction[:, 0], [0.75, 0.25])
+    np.testing.assert_allclose(fraction[:, 1], [1.0, 0.0])
+    np.testing.assert_allclose(fraction[:, 2], [0.0, 1.0])  # over the 3 runs with a value
+
+
+def test_the_ubar_distribution_of_a_stored_condition_sums_to_one_per_step(results):
+    _, out = results
+    steps = pd.read_parquet(out / "steps.parquet")
+    mine = steps[steps.condition_id == steps.condition_id.iloc[-1]]
+    edges = np.linspace(mine.ubar_true.min(), mine.ubar_true.max(), 41)
+    k, fraction = M.ubar_distribution(mine, edges)
+    assert len(k) == mine.step.nunique() and np.allclose(fraction.sum(axis=0), 1.0)
+    assert np.allclose(fraction * mine.run_id.nunique(), np.round(fraction * mine.run_id.nunique()))
+
+
+def test_each_event_has_its_recovery():
+    k = np.arange(30)
+    rows = []
+    for run, back in enumerate([12, 10]):  # run r0 drops to 0 for two steps at the first event, r1 not at all
+        ubar = np.where((k >= 10) & (k < back), 0.0, 4.0)
+        ubar = np.where(k >= 20, 1.0, ubar)  # the second event, at step 20: never recovered from
+        event = np.where(k == 10, "friction scale=0.5", np.where(k == 20, "cut link=1", ""))
+        rows.append(pd.DataFrame({"condition_id": "c", "run_id": f"r{run}", "step": k, "ubar_true": ubar,
+                                  "event": event}))
+    first, second = M.event_recovery(pd.concat(rows), window=5).to_dict("records")
+    assert (first["event_index"], first["event_step"], first["event"], first["runs"]) == (0, 10, "friction scale=0.5",
+                                                                                          2)
+    assert first["ubar_before"] == 4.0 and first["ubar_before_std"] == 0.0
+    assert first["ubar_after"] == pytest.approx((2.4 + 4.0) / 2)  # steps 10-14: (0, 0, 4, 4, 4) and 4s
+    assert first["ubar_end"] == 4.0  # steps 15-19, the last 5 before the next event
+    assert first["recovery_steps"] == 1.0 and first["recovery_steps_std"] == pytest.approx(math.sqrt(2))
+    assert first["recovered_fraction"] == 1.0  # 2 steps and 0 steps to regain 0.8 x 4
+    assert (second["event_index"], second["event_step"], second["ubar_before"]) == (1, 20, 4.0)
+    assert (second["ubar_after"], second["ubar_end"]) == (1.0, 1.0)
+    assert math.isnan(second["recovery_steps"]) and second["recovered_fraction"] == 0.0
+
+
+def test_phase_differences_are_by_position_and_wrapped():
+    units = pd.DataFrame({"step": [0, 0, 0, 1, 1, 1], "unit": [1, 2, 3, 1, 2, 3], "position": [1, 2, 3, 3, 1, 2],
+                          "phase_tried": [0.9, 0.1, 0.95, 0.2, 0.5, 0.25]})
+    table = M.phase_differences(units)
+    np.testing.assert_allclose(table.dphi_2, [0.2, 0.75])  # step 1: unit 3 is second, unit 2 in front
+    np.testing.assert_allclose(table.dphi_3, [0.05, 0.7])
+    assert ((table[["dphi_2", "dphi_3"]] >= 0) & (table[["dphi_2", "dphi_3"]] < 1)).all().all()
+
+
+def test_each_piece_of_a_cut_is_scored_on_its_own():
+    units = pd.DataFrame({"run_id": "r", "step": [1, 1, 1, 2, 2, 2], "unit": [1, 2, 3] * 2,
+                          "piece": [1, 1, 1, 1, 2, 2], "u_true": [1.0, 2.0, 3.0, 1.0, 2.0, 4.0],
+                          "u_measured": [1.0, 2.0, 3.0, 1.0, 2.0, np.nan]})  # unit 3 is dead at step 2
+    table = M.piece_curves(units)
+    assert table[["step", "piece", "n_units", "ubar"]].values.tolist() == [[1, 1, 3, 2.0], [2, 1, 1, 1.0],
+                                                                          [2, 2, 1, 2.0]]
+
+
+# --- the report ------------------------------------------------------------------------------------------------
+
+
+def figures_named(report: str) -> list[str]:
+    return re.findall(r"!\[[^\]]*\]\(figures/([^)]+)\)", report)
+
+
+def test_every_figure_the_report_names_is_on_disk_and_the_paper_figures_are_there(results, report):
+    _, out = results
+    named = figures_named(report)
+    assert named and all((out / "figures" / name).is_file() for name in named)
+    assert len(named) == len(set(named))
+    assert {"S1-ubar.png", "S1-acceptance.png", "S1-positions.png", "S6-landscapes.png", "S6-events.png",
+            "S9-scaling.png", "S11-events.png", "scan-S3-damaged.png"} <= set(named)
+    assert "S1-scaling.png" not in named and "S1-events.png" not in named  # one size, no events
+    assert sorted(p.name for p in (out / "figures").glob("*.png")) == sorted(named)
+    s6 = report.split("## S6")[1].split("## S9")[0]
+    assert "| learner | event at | event | runs | Ubar before | Ubar after | Ubar at the end |" in s6
+    assert s6.count("| 8 | damage unit=2 mode=no-inflate | 2 |") == 2
+
+
+def test_a_report_of_partial_results_says_what_it_left_out(results, tmp_path):
+    _, out = results
+    partial = tmp_path / "partial"
+    partial.mkdir()
+    shutil.copy(out / "plan.json", partial / "plan.json")
+    tables = Store(out).consolidate(write=False)
+    s6 = tables["runs"].condition_id[tables["runs"].experiments.str.contains("S6")].unique()
+    tables["steps"] = tables["steps"][~tables["steps"].condition_id.isin(s6)].drop(columns=["x_m", "y_m"])
+    tables["runs"].loc[tables["runs"].condition_id.isin(s6), "status"] = "missing"
+    tables["units"] = pd.DataFrame(columns=["run_id"])  # results stored before units.parquet had positions
+    scans = tables["scans"]
+    tables["scans"] = scans[(scans.scan != "S2") & ~((scans.scan == "S3") & (scans.dphi_2 > 0.3))].drop(
+        columns=["damage"])  # S2 unfinished, S3 half-measured, and a scans table older than damaged scans
+    report = build_report(partial, tables).read_text()
+    assert "## S6" in report and "No finished runs yet." in report.split("## S6")[1].split("## S9")[0]
+    assert "Start and end positions: not drawn" in report
+    assert "Landscape S3: not drawn (8 of 16 points measured yet)." in report
+    assert all((partial / "figures" / name).is_file() for name in figures_named(report))
