@@ -1,5 +1,5 @@
-"""The paper's figures in a suite's report: scans of a damaged assembly, the experiment's scans, the Ubar
-distribution, events, landscapes with trails, positions and scaling.
+"""The paper's figures and claims in a suite's report: scans of a damaged assembly, the experiment's scans, the Ubar
+distribution, events, landscapes with trails, positions, scaling, and the claims table.
 
 One tiny suite on the quasi-static backend (runs of 10-16 steps, scans of 4 x 4 and 10 points) is run once for the
 module, in this process; the pure functions are checked on tables built by hand, whose answers are known.
@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from morphbench.bench import build_report, load_suite, metrics as M, run_suite
+from morphbench.bench import build_report, claims as C, load_suite, metrics as M, run_suite
 from morphbench.bench.report import _stretch
 from morphbench.bench.store import Store
 from morphbench.errors import ConfigError
@@ -271,6 +271,19 @@ def test_every_figure_the_report_names_is_on_disk_and_the_paper_figures_are_ther
     assert s6.count("| 8 | damage unit=2 mode=no-inflate | 2 |") == 2
 
 
+def test_the_claims_section_checks_the_stored_tables(results, report):
+    _, out = results
+    claims = report.split("## Claims")[1]
+    scans = pd.read_parquet(out / "scans.parquet")
+    curve = scans[scans.scan == "S2"]
+    peak = curve.ubar.max()
+    row = next(line for line in claims.splitlines() if line.startswith("| scan-2-peak |"))
+    assert f"| {peak:.3g} mm/cycle | scan S2 (10 points) |" in row
+    assert row.endswith(f"| {'yes' if abs(peak - 4.5) <= 1 else 'no'} |")
+    assert "| hw-trough |" in claims and "the suite has no complete healthy 2-unit scan with pump vibration" in claims
+    assert claims.count("| not measured |") >= 3
+
+
 def test_a_report_of_partial_results_says_what_it_left_out(results, tmp_path):
     _, out = results
     partial = tmp_path / "partial"
@@ -288,4 +301,93 @@ def test_a_report_of_partial_results_says_what_it_left_out(results, tmp_path):
     assert "## S6" in report and "No finished runs yet." in report.split("## S6")[1].split("## S9")[0]
     assert "Start and end positions: not drawn" in report
     assert "Landscape S3: not drawn (8 of 16 points measured yet)." in report
+    assert "scan-2-peak" in report and "the suite has no complete healthy 2-unit scan" in report
     assert all((partial / "figures" / name).is_file() for name in figures_named(report))
+
+
+# --- the claims, on tables built by hand -----------------------------------------------------------------------
+
+
+def scan_table(values, name="S2", **columns) -> pd.DataFrame:
+    """A 2-unit scan at dphi = k / len(values)."""
+    n = len(values)
+    return pd.DataFrame({"scan_id": name, "scan": name, "n_units": 2, "samples": n, "damage": "none",
+                         "environment_id": M._default_ground(), "environment": "default",
+                         "dphi_2": np.arange(n) / n, "ubar": values, **columns})
+
+
+SAWTOOTH = [0.0, 0.5, 1.4, 3.1, 4.6, 0.0, -4.6, -3.1, -1.4, -0.5]
+"""antisymmetric, one peak of 4.6 at 0.4 and a trough of -4.6 at 0.6."""
+
+
+def verdicts(tables) -> dict[str, C.Verdict]:
+    return {v.claim.id: v for v in C.check(tables)}
+
+
+def test_the_scan_claims_measure_a_known_curve():
+    found = verdicts({"scans": scan_table(SAWTOOTH)})
+    assert found["scan-2-peak"].measured.value == 4.6 and found["scan-2-peak"].holds
+    assert found["scan-2-peak-at"].measured.value == pytest.approx(0.4) and found["scan-2-peak-at"].holds
+    assert found["scan-2-trough"].measured.value == -4.6 and found["scan-2-trough-at"].holds
+    assert found["scan-2-antisymmetric"].measured.value == pytest.approx(0.0) and found["scan-2-antisymmetric"].holds
+    assert found["scan-2-one-optimum"].measured.value == 1 and found["scan-2-one-optimum"].holds
+    assert found["scan-2-peak"].measured.on == "scan S2 (10 points)"
+    # a bump at 0.8 standing out by more than a tenth of the range is a second optimum; the peak moved to 0.2 fails
+    bumped = verdicts({"scans": scan_table([0.0, 1.0, 4.6, 1.0, 0.0, -1.0, -4.6, -1.0, 1.5, 0.0])})
+    assert bumped["scan-2-one-optimum"].measured.value == 2 and not bumped["scan-2-one-optimum"].holds
+    assert bumped["scan-2-peak-at"].measured.value == pytest.approx(0.2) and not bumped["scan-2-peak-at"].holds
+    assert bumped["scan-2-antisymmetric"].measured.value > 0.15 and not bumped["scan-2-antisymmetric"].holds
+    # a damaged scan, another ground or an unfinished scan is not the 2-unit scan the paper speaks of
+    for other in (scan_table(SAWTOOTH, damage="damage unit=2 mode=no-inflate"),
+                  scan_table(SAWTOOTH, environment_id="elsewhere"), scan_table(SAWTOOTH, samples=20)):
+        assert verdicts({"scans": other})["scan-2-peak"].holds is None
+    # with pump vibration, the hardware's curve: -3 near 0.6 and a local maximum of about 1 near 0.9
+    hardware = scan_table([0.0, 0.5, 1.5, 3.0, 4.0, 0.0, -3.0, -1.5, 1.0, 0.0], environment="vibration=0.8",
+                          environment_id="shaken")
+    hw = verdicts({"scans": hardware})
+    assert hw["hw-trough"].holds and hw["hw-local-max"].measured.value == 1.0 and hw["hw-local-max-at"].holds
+    assert hw["scan-2-peak"].holds is None  # its ground is not the default one
+
+
+def test_a_claim_without_its_data_is_not_measured_and_says_why():
+    for tables in ({}, {"scans": pd.DataFrame()}, {"scans": pd.DataFrame({"scan_id": ["x"], "ubar": [1.0]})},
+                   {"metrics": pd.DataFrame({"condition_id": ["c"]})}):
+        for verdict in C.check(tables):
+            assert verdict.holds is None and verdict.measured is None and verdict.reason
+    reasons = {v.claim.id: v.reason for v in C.check({"metrics": pd.DataFrame({"condition_id": ["c"]})})}
+    assert reasons["S1-level"].startswith("the metrics lack events, learner, n_units, noise")
+
+
+def metrics_row(**values) -> dict:
+    row = {"condition_id": "c2", "shape": "chain-2", "n_units": 2, "learner": "thermal", "noise": 0.0,
+           "events": "none", "step_size": 0.1, "environment_id": M._default_ground(), "runs": 112, "failed": 0,
+           "missing": 0, "final_ubar": 4.0, "u_eq": 4.4, "plateau": True, "steps_to_threshold": 12.0,
+           "reached_fraction": 1.0, "acceptance_final": 0.3}
+    return {**row, **values}
+
+
+def test_the_learning_claims_read_the_first_matching_condition():
+    metrics = pd.DataFrame([metrics_row(condition_id="noisy", noise=0.5, u_eq=0.0), metrics_row(),
+                            metrics_row(condition_id="c3", shape="chain-3", n_units=3, acceptance_final=0.6)])
+    runs = pd.DataFrame({"run_id": ["a"], "condition_id": ["c2"], "experiments": ["S1;S9"]})
+    found = verdicts({"metrics": metrics, "runs": runs})
+    assert found["S1-level"].measured.value == 4.4 and found["S1-level"].holds
+    assert found["S1-level"].measured.on == "S1, S9: chain-2 thermal (112 runs)"
+    assert found["S1-speed"].holds and found["S1-every-run"].holds
+    assert found["T-acceptance"].measured.value == 0.6 and not found["T-acceptance"].holds
+    slow = verdicts({"metrics": pd.DataFrame([metrics_row(steps_to_threshold=np.nan, reached_fraction=0.0)])})
+    assert slow["S1-speed"].measured.value == math.inf and not slow["S1-speed"].holds
+    assert not slow["S1-every-run"].holds
+    flat = verdicts({"metrics": pd.DataFrame([metrics_row(plateau=False)])})
+    assert flat["S1-level"].holds is None and "no plateau" in flat["S1-level"].reason
+
+
+def test_local_maxima_and_bimodality_have_their_textbook_answers():
+    assert C.local_maxima(np.array(SAWTOOTH)) == [(4, pytest.approx(9.2))]
+    assert [i for i, _ in C.local_maxima(np.array([0, 2, 0, 1, 0, 3, 0.0]))] == [1, 3, 5]
+    assert [i for i, _ in C.local_maxima(np.array([0, 2, 0, 0.1, 0, 3, 0.0]))] == [1, 5]  # 0.1 of 3 is too small
+    rng = np.random.default_rng(0)
+    assert C.bimodality(rng.normal(size=2000)) == pytest.approx(1 / 3, abs=0.03)
+    assert C.bimodality(rng.uniform(size=2000)) == pytest.approx(5 / 9, abs=0.03)
+    assert C.bimodality(np.r_[rng.normal(0, 0.1, 500), rng.normal(5, 0.1, 500)]) > 0.9
+    assert math.isnan(C.bimodality([1.0, 2.0, 3.0]))

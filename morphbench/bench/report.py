@@ -19,8 +19,9 @@ each event's recovery (metrics.event_recovery), and into ``DIR/figures/`` (morph
   runs recorded one: runs stored before steps.parquet had ``x_m`` are left out);
 and ``scan-<name>.png`` per scan (a curve for 2 units, a heat map for 3, a histogram beyond). ``DIR/report.md``
 holds the tables and figures, a comparison of decentralized learners with centralized controllers when the suite
-has both, and the failed runs with their errors. A figure the tables cannot give (an experiment without finished
-runs, results stored before a column existed, an unfinished scan) is left out with a line saying why.
+has both, the paper's claims checked against the tables (morphbench.bench.claims) and the failed runs with their
+errors. A figure the tables cannot give (an experiment without finished runs, results stored before a column
+existed, an unfinished scan) is left out with a line saying why.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from morphbench import plots  # noqa: E402
+from morphbench.bench import claims as C  # noqa: E402
 from morphbench.bench import figures as F  # noqa: E402
 from morphbench.bench import metrics as M  # noqa: E402
 from morphbench.bench.store import Store  # noqa: E402
@@ -97,6 +99,7 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
     if plan["scans"]:
         lines += ["## Scans", ""]
         lines += _scan_section(plan, scans, figures)
+    lines += _claims_section({**tables, "metrics": metrics, "curves": curves})
     failed = runs[runs.status == "failed"]
     failed_scans = tables["jobs"][(tables["jobs"].kind == "scan") & (tables["jobs"].status == "failed")]
     if len(failed) or len(failed_scans):
@@ -489,6 +492,28 @@ def _scan_section(plan: dict, scans: pd.DataFrame, figures: Path) -> list[str]:
                                      title=f"{columns['shape']}{what}: Ubar at fixed phases ({scan['name']})")
             pictures.append(f"![scan {scan['name']}](figures/{path.name})")
     return lines + [""] + [p + "\n" for p in pictures]
+
+
+def _claims_section(tables: dict[str, pd.DataFrame]) -> list[str]:
+    """The paper's quantitative statements against what the tables measure (morphbench.bench.claims)."""
+    lines = ["## Claims", "",
+             "The paper's quantitative statements (shared/spec/robotic-matter.md, section 3), each measured on this "
+             "suite's tables: 'holds' applies the rule to the measured value; 'not measured' says what the suite "
+             "lacks.", "",
+             "| claim | scenario | statement | paper | measured | measured on | holds if | holds |",
+             "|---|---|---|---|---|---|---|---|"]
+    for verdict in C.check(tables):
+        claim, measured = verdict.claim, verdict.measured
+        unit = f" {claim.unit}" if claim.unit else ""
+        if measured is None:
+            value, on, holds = "-", _cell(verdict.reason), "not measured"
+        else:
+            value = "never" if measured.value == math.inf else _fmt(float(measured.value))
+            value += unit if value not in ("-", "never") else ""
+            on, holds = _cell(measured.on), "yes" if verdict.holds else "no"
+        lines.append(f"| {claim.id} | {claim.scenario} | {_cell(claim.statement)} | {_fmt(claim.paper)}{unit} | "
+                     f"{value} | {on} | {claim.rule_text()} | {holds} |")
+    return lines + [""]
 
 
 def _display_columns(varying) -> list[str]:
