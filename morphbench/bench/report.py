@@ -204,7 +204,7 @@ def _experiment_section(experiment: dict, ctx: _Context) -> list[str]:
     if marks:
         lines += _events_figure(name, done, labels, marks, ctx)
     lines += _landscapes(name, experiment, mine, done, labels, ctx)
-    lines += _positions(name, experiment, done, labels, ctx)
+    lines += _positions(name, done, labels, ctx)
     steps = ctx.tables["steps"]
     tracks = {labels[c]: ctx.steps_of(c) for c in done} if "x_m" in steps else {}
     if any(table.x_m.notna().any() for table in tracks.values()):
@@ -261,7 +261,7 @@ def _by_noise(mine: pd.DataFrame, varying: list[str]) -> list[tuple[str, np.ndar
     if "noise" not in varying:
         return None
     others = [c for c in varying if c != "noise"]
-    groups = mine.groupby(others, sort=False) if others else [((), mine)]
+    groups = mine.groupby(others, sort=False, dropna=False) if others else [((), mine)]
     lines = []
     for key, rows in groups:
         key = key if isinstance(key, tuple) else (key,)
@@ -273,7 +273,7 @@ def _by_noise(mine: pd.DataFrame, varying: list[str]) -> list[tuple[str, np.ndar
 
 def _scaling_groups(mine: pd.DataFrame, varying: list[str]) -> list[tuple[str | None, pd.DataFrame]]:
     others = [c for c in varying if c not in ("shape", "shape_id", "n_units")]
-    groups = mine.groupby(others, sort=False) if others else [((), mine)]
+    groups = mine.groupby(others, sort=False, dropna=False) if others else [((), mine)]
     found = []
     for key, rows in groups:
         key = key if isinstance(key, tuple) else (key,)
@@ -378,7 +378,7 @@ def _matches(row: pd.Series, columns: dict) -> bool:
             and row.get("environment_id") == columns.get("environment_id"))
 
 
-def _positions(name: str, experiment: dict, done: list[str], labels: dict, ctx: _Context) -> list[str]:
+def _positions(name: str, done: list[str], labels: dict, ctx: _Context) -> list[str]:
     """Start and end positions of a few runs: the first seeds of each condition in turn."""
     if not ctx.has_units("x_m", "step", "unit"):
         return ["Start and end positions: not drawn (the store has no unit positions: units.parquet without x_m).",
