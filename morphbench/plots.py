@@ -83,14 +83,7 @@ def scan_figure(table: pd.DataFrame, path: str | Path, title: str = "") -> Path:
         ax.set_xlabel("phase difference dphi_2 (cycles)")
         ax.set_ylabel("Ubar (mm/cycle)")
     elif len(dphi) == 2:
-        grid = table.pivot(index="dphi_3", columns="dphi_2", values="ubar")
-        limit = float(np.nanmax(np.abs(grid.values))) or 1.0
-        mesh = ax.pcolormesh(grid.columns, grid.index, grid.values, cmap="RdBu_r", vmin=-limit, vmax=limit,
-                             shading="nearest")
-        fig.colorbar(mesh, ax=ax, label="Ubar (mm/cycle)")
-        ax.set_xlabel("dphi_2 (cycles)")
-        ax.set_ylabel("dphi_3 (cycles)")
-        ax.set_aspect("equal")
+        fig.colorbar(landscape(ax, table), ax=ax, label="Ubar (mm/cycle)")
     else:
         ax.hist(table.ubar, bins=30)
         ax.set_xlabel(f"Ubar (mm/cycle) at {len(table)} sampled phase vectors")
@@ -99,9 +92,33 @@ def scan_figure(table: pd.DataFrame, path: str | Path, title: str = "") -> Path:
     return save_figure(fig, path)
 
 
+def landscape(ax, table: pd.DataFrame, limit: float | None = None):
+    """A 3-unit scan's Ubar over (dphi_2, dphi_3) on ``ax`` as a heat map (red forward, blue backward, white at rest;
+    ``limit``: the |Ubar| of the darkest colour, default the scan's largest); returns the mesh, for a colour bar.
+    Phases are periodic: the map covers [0, 1) on both axes, the points at 0 repeated at 1, each point's cell centred
+    on it (so the cells on the edges are halves)."""
+    grid = table.pivot(index="dphi_3", columns="dphi_2", values="ubar")
+    x, y, values = grid.columns.to_numpy(dtype=float), grid.index.to_numpy(dtype=float), grid.to_numpy()
+    if len(x) > 1 and len(y) > 1 and x[0] == 0 and y[0] == 0:  # a full grid: wrap it round
+        x, y = np.append(x, 1.0), np.append(y, 1.0)
+        values = np.vstack([values, values[:1]])
+        values = np.hstack([values, values[:, :1]])
+    limit = limit or float(np.nanmax(np.abs(values))) or 1.0
+    mesh = ax.pcolormesh(x, y, values, cmap="RdBu_r", vmin=-limit, vmax=limit, shading="nearest")
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("dphi_2 (cycles)")
+    ax.set_ylabel("dphi_3 (cycles)")
+    ax.set_aspect("equal")
+    return mesh
+
+
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
-    """Lay ``fig`` out, write it to ``path`` atomically (the format from its suffix) and close it."""
-    fig.tight_layout()
+    """Lay ``fig`` out (tightly, unless it was made with a layout engine of its own, e.g. ``layout="constrained"``
+    for a colour bar shared by several panels), write it to ``path`` atomically (the format from its suffix) and close
+    it."""
+    if fig.get_layout_engine() is None:
+        fig.tight_layout()
     atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=dpi))
     plt.close(fig)
     return Path(path)

@@ -5,7 +5,8 @@ import sys
 
 
 def test_metrics_report_and_plots_import_no_simulator():
-    code = ("import morphbench.bench.metrics, morphbench.bench.report, morphbench.plots, sys; "
+    code = ("import morphbench.bench.metrics, morphbench.bench.report, morphbench.bench.figures, "
+            "morphbench.bench.claims, morphbench.plots, sys; "
             "assert 'pybullet' not in sys.modules and 'numba' not in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
 

@@ -7,10 +7,14 @@
     store.py      the results directory: one atomically written directory per job, consolidated tables
     runner.py     run_suite: skip what the directory holds, run the rest, save each job as it finishes
     metrics.py    per-condition metrics (final Ubar, exponential fit, steps to 0.8 U_eq, acceptance, scan best)
+    figures.py    the report's figures of an experiment (Ubar distribution, acceptance, scaling, events,
+                  landscapes with the phases tried, start and end positions), drawn from tables
+    claims.py     the paper's quantitative statements, each measured on the stored tables
     report.py     figures and report.md, rebuilt from the store
     cli.py        the `bench` and `report` subcommands (add_bench_commands)
 
-The names below are imported on first use (``morphbench.lazy``): the metrics and the report need no simulator.
+The names below are imported on first use (``morphbench.lazy``): the metrics, figures, claims and the report need no
+simulator.
 """
 
 from morphbench.lazy import export_lazily

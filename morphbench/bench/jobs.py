@@ -46,7 +46,7 @@ def _run(config) -> dict[str, Any]:
 
 def _scan(part) -> dict[str, Any]:
     """A ``suite.ScanPart``: Ubar at each of its points."""
-    ubar = [ScanPoint(part.shape, p, part.physics, part.cycles, part.discard, part.environment).ubar()
+    ubar = [ScanPoint(part.shape, p, part.physics, part.cycles, part.discard, part.environment, part.damage).ubar()
             for p in part.phases]
     columns = [f"dphi_{i}" for i in range(2, part.shape.n_units + 1)]
     points = pd.DataFrame(np.asarray(part.phases)[:, 1:], columns=columns)

@@ -15,7 +15,12 @@ Per condition (a run's configuration without its seed), over its seeds:
   environment without its noise) and the fraction of it that learning reached (final Ubar / scan best);
 - for conditions with events, recovery from the first one: the steps each run takes, from the event's step, to
   regain ``RECOVERY_FRACTION`` of its pre-event level (its mean Ubar over the ``RECOVERY_WINDOW`` steps before the
-  event), ``recovery_steps`` (mean and std over the runs that do) and ``recovered_fraction`` (``recovery_steps``).
+  event), ``recovery_steps`` (mean and std over the runs that do) and ``recovered_fraction`` (``recovery_steps``);
+  ``event_recovery`` gives the same for every event, with Ubar before, just after and at the end of its stretch.
+
+For the figures: ``ubar_distribution`` (the fraction of a condition's runs in each Ubar bin at each step),
+``piece_curves`` (Ubar of each piece of a cut assembly, from the units table) and ``phase_differences`` (the phase
+differences a run tried, by position, as a landscape's axes).
 
 Ubar here is ``ubar_true`` by default: the robot's true speed, which measurement noise does not blur (the
 learners themselves only ever see ``ubar``, the measured one). Pass ``column='ubar'`` for the measured one.
@@ -32,6 +37,7 @@ import pandas as pd
 from morphbench.bench.identity import environment_id
 from morphbench.bench.store import SUMMARY_COLUMNS
 from morphbench.experiment.records import final_value
+from morphbench.learning.base import wrap_phases
 from morphbench.params import EnvironmentParams
 
 THRESHOLD = 0.8
@@ -221,14 +227,109 @@ def _over_runs(runs: pd.DataFrame, column: str) -> tuple[float, float]:
 
 
 def scan_best(scans: pd.DataFrame) -> dict[tuple, float]:
-    """The highest Ubar of any scan point, per (shape_id, physics, environment_id) (scans of results written before
-    scans had environments: the default ground)."""
+    """The highest Ubar of any healthy scan point, per (shape_id, physics, environment_id) (scans of results written
+    before scans had environments: the default ground). A damaged scan is left out: it says nothing of what the
+    healthy robot could do."""
+    scans = healthy_scans(scans)
     if scans is None or scans.empty:
         return {}
     scans = scans if "environment_id" in scans else scans.assign(environment_id=_default_ground())
     scans = scans.fillna({"environment_id": _default_ground()})
     grouped = scans.groupby(["shape_id", "physics", "environment_id"]).ubar.max()
     return {key: float(value) for key, value in grouped.items()}
+
+
+def healthy_scans(scans: pd.DataFrame | None) -> pd.DataFrame | None:
+    """The points of the scans of an undamaged assembly (``damage`` 'none'; all of them in results written before
+    scans could be damaged)."""
+    if scans is None or "damage" not in scans:
+        return scans
+    return scans[scans.damage.isna() | (scans.damage == "none")]
+
+
+def ubar_distribution(steps: pd.DataFrame, edges, column: str = "ubar_true") -> tuple[np.ndarray, np.ndarray]:
+    """The distribution of one condition's per-run Ubar over its runs at each learning step: ``(learning steps,
+    fraction)``, ``fraction[b, k]`` the fraction of the runs with a finite Ubar at step ``k`` whose Ubar falls in bin
+    ``b`` of ``edges`` (increasing; a value outside them counts in the first or last bin, so each column sums to 1;
+    a step where no run has a value is a column of zeros)."""
+    edges = np.asarray(edges, dtype=float)
+    table = steps[["step", column]].dropna()
+    values = np.sort(table.step.unique())
+    fraction = np.zeros((len(edges) - 1, len(values)))
+    if not len(values):
+        return values, fraction
+    column_of = np.searchsorted(values, table.step.to_numpy())
+    bins = np.clip(np.searchsorted(edges, table[column].to_numpy(dtype=float), side="right") - 1, 0, len(edges) - 2)
+    np.add.at(fraction, (bins, column_of), 1.0)
+    return values, fraction / np.maximum(fraction.sum(axis=0), 1.0)
+
+
+def event_recovery(steps: pd.DataFrame, column: str = "ubar_true", fraction: float = RECOVERY_FRACTION,
+                   window: int = RECOVERY_WINDOW) -> pd.DataFrame:
+    """One row per condition and event (in step order; the events a step recorded, '; '-joined, are one event here):
+    ``condition_id``, ``event_index`` (0 = first), ``event_step``, ``event`` (its text), ``runs`` (runs that recorded
+    it), per run mean Ubar over the ``window`` steps before it (``ubar_before``), over the ``window`` steps from it on
+    (``ubar_after``, the drop) and over the last ``window`` steps of its stretch, up to the next event or the run's end
+    (``ubar_end``), each mean and ``_std`` over runs; ``recovery_steps`` (``recovery_steps``, within the stretch: mean
+    and std over the runs that regain ``fraction`` of the level before) and ``recovered_fraction`` (of the runs where
+    it is defined)."""
+    columns = ["condition_id", "event_index", "event_step", "event", "runs", "ubar_before", "ubar_before_std",
+               "ubar_after", "ubar_after_std", "ubar_end", "ubar_end_std", "recovery_steps", "recovery_steps_std",
+               "recovered_fraction"]
+    if steps.empty or "event" not in steps:
+        return pd.DataFrame(columns=columns)
+    found: dict[tuple, dict[str, list]] = {}
+    for (condition_id, _), run in steps.groupby(["condition_id", "run_id"], sort=False):
+        run = run.sort_values("step")
+        k, u = run.step.to_numpy(), run[column].to_numpy(dtype=float)
+        marked = [(int(step), text) for step, text in zip(k, run.event) if isinstance(text, str) and text]
+        for index, (step, text) in enumerate(marked):
+            end = marked[index + 1][0] if index + 1 < len(marked) else math.inf
+            stretch = k < end
+            values = found.setdefault((condition_id, index, step, text), {"before": [], "after": [], "end": [],
+                                                                           "recovery": []})
+            values["before"].append(_mean(u[(k < step) & (k >= step - window)]))
+            values["after"].append(_mean(u[(k >= step) & (k < min(step + window, end))]))
+            values["end"].append(_mean(u[stretch & (k >= step)][-window:]))
+            values["recovery"].append(recovery_steps(k[stretch], u[stretch], step, fraction, window))
+    rows = []
+    for (condition_id, index, step, text), values in found.items():
+        row = {"condition_id": condition_id, "event_index": index, "event_step": step, "event": text,
+               "runs": len(values["before"])}
+        for name in ("before", "after", "end"):
+            finite = np.array(values[name])
+            finite = finite[np.isfinite(finite)]
+            row[f"ubar_{name}"], row[f"ubar_{name}_std"] = _mean(finite), _std(finite)
+        recovery = np.array(values["recovery"])
+        defined = recovery[~np.isnan(recovery)]
+        recovered = defined[np.isfinite(defined)]
+        row.update(recovery_steps=_mean(recovered), recovery_steps_std=_std(recovered),
+                   recovered_fraction=float(len(recovered) / len(defined)) if len(defined) else math.nan)
+        rows.append(row)
+    return pd.DataFrame(rows, columns=columns)
+
+
+def piece_curves(units: pd.DataFrame) -> pd.DataFrame:
+    """Per run, step and piece of a cut assembly (units.parquet's ``piece``): ``ubar`` (mean ``u_true`` of the
+    piece's units that are not dead, the way steps.parquet scores the whole assembly) and ``n_units``."""
+    columns = ["run_id", "step", "piece", "n_units", "ubar"]
+    if units.empty or not {"run_id", "step", "piece", "u_true"} <= set(units.columns):
+        return pd.DataFrame(columns=columns)
+    alive = units[units.u_measured.notna()] if "u_measured" in units else units
+    table = alive.groupby(["run_id", "step", "piece"], sort=True).u_true.agg(n_units="count", ubar="mean")
+    return table.reset_index()[columns]
+
+
+def phase_differences(units: pd.DataFrame, column: str = "phase_tried") -> pd.DataFrame:
+    """One run's phases as a landscape's coordinates: per step, ``dphi_2``, ``dphi_3``, ... the phase of the unit at
+    position 2, 3, ... minus that of the unit at position 1 (the front), wrapped to [0, 1), as a scan's axes are.
+    By position, not unit number: a scan knows only places in the chain (a shuffled unit moves on the map)."""
+    order = "position" if "position" in units else "unit"
+    wide = units.pivot_table(index="step", columns=order, values=column, aggfunc="first").sort_index()
+    table = pd.DataFrame({"step": wide.index.to_numpy()})
+    for place in wide.columns[1:]:
+        table[f"dphi_{int(place)}"] = wrap_phases(wide[place].to_numpy() - wide[wide.columns[0]].to_numpy())
+    return table
 
 
 @functools.cache

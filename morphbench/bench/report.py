@@ -2,38 +2,53 @@
 
 ``build_report(DIR)`` consolidates the tables from the job directories (so it also works on the results of an
 interrupted bench, reporting the missing runs), computes ``curves.parquet`` and ``metrics.parquet``
-(morphbench.bench.metrics) and writes, per experiment, into ``DIR/figures/``:
-- ``<experiment>-ubar.png``: Ubar (true) vs learning step, median with 25-75% and 10-90% bands over seeds, the
-  exponential fit dashed and the scan's best Ubar dotted, one panel per condition;
+(morphbench.bench.metrics) and writes, per experiment, a table of its conditions' metrics, with events a table of
+each event's recovery (metrics.event_recovery), and into ``DIR/figures/`` (morphbench.bench.figures draws them):
+- ``<experiment>-ubar.png``: per condition, the distribution of per-run Ubar (true) over seeds against the learning
+  step (colour: fraction of runs), the mean over seeds, the exponential fit dashed, the scan's best dotted, events;
 - ``<experiment>-acceptance.png``: mean acceptance vs learning step (10-step running mean), one line per condition;
-- ``<experiment>-scaling.png`` when the experiment spans several numbers of units: U_eq and steps to 0.8 U_eq vs N;
+  beside it the final acceptance against the noise when the experiment sweeps the noise;
+- ``<experiment>-scaling.png`` when the experiment spans several numbers of units: U_eq (error bars: std of final
+  Ubar over seeds), steps to 0.8 U_eq and the fraction of runs that reach it, against N;
+- ``<experiment>-events.png`` with events: mean Ubar per condition with the events marked, per piece after a cut;
+- ``<experiment>-landscapes.png`` when 3-unit scans go with the experiment (its ``scans`` key, or the scans of its
+  shape, physics and ground: morphbench.bench.suite): each map with the phase differences tried by one run per
+  learner over the stretch of the run the map describes (a damaged map: from the damage on);
+- ``<experiment>-positions.png``: the units' positions along the track at the first and last step, a few runs;
 - ``<experiment>-trajectories.png``: every run's centroid track on the ground, one colour per condition (when the
   runs recorded one: runs stored before steps.parquet had ``x_m`` are left out);
 and ``scan-<name>.png`` per scan (a curve for 2 units, a heat map for 3, a histogram beyond). ``DIR/report.md``
-holds the tables of metrics (a centralized controller's rows marked), the figures, a comparison of decentralized
-learners with centralized controllers when the suite has both, and the failed runs with their errors.
+holds the tables and figures, a comparison of decentralized learners with centralized controllers when the suite
+has both, the paper's claims checked against the tables (morphbench.bench.claims) and the failed runs with their
+errors. A figure the tables cannot give (an experiment without finished runs, results stored before a column
+existed, an unfinished scan) is left out with a line saying why.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from morphbench import plots  # noqa: E402
 from morphbench.bench import backends as B  # noqa: E402
+from morphbench.bench import claims as C  # noqa: E402
+from morphbench.bench import figures as F  # noqa: E402
 from morphbench.bench import metrics as M  # noqa: E402
 from morphbench.bench.store import Store  # noqa: E402
 from morphbench.files import write_text  # noqa: E402
 
-MAX_PANELS = 24
+MAX_POSITION_RUNS = 6
+"""runs drawn at most in a figure of start and end positions."""
+MAX_CURVES = 12
+"""conditions drawn at most as lines of one plot."""
 
 
 def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None) -> Path:
@@ -65,10 +80,11 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
               "U(k) = U_eq - (U_eq - U_0) exp(-k/k_0) to the seed-averaged curve ('no plateau' when k_0 exceeds a "
               f"third of the run: U_eq would be an extrapolation). Steps to {M.THRESHOLD:g} U_eq: first step a run "
               "reaches it, mean +- std over the runs that do, and the fraction that do. 'of scan best': final Ubar "
-              "over the best Ubar of the suite's scans of the same shape and ground. With events: the step of the "
-              f"first one, and the steps runs take from it to regain {M.RECOVERY_FRACTION:g} of their mean Ubar over "
-              f"the {M.RECOVERY_WINDOW} steps before it (mean +- std over the runs that do, 'never' if none does), "
-              "and the fraction that do. U along heading: the assembly centroid's velocity along its heading "
+              "over the best Ubar of the suite's healthy scans of the same shape, physics and ground. Experiments "
+              "with events have a table of each event's recovery. Figures: the distribution of Ubar over seeds at "
+              "each step (colour: fraction of runs; the mean over seeds on top), acceptance, and as the experiment "
+              "allows scaling with N, Ubar around events, the phases tried on landscapes, start and end positions "
+              "and trajectories. U along heading: the assembly centroid's velocity along its heading "
               "(mm/cycle, over the same last steps as final Ubar; pump cycles between steps include the discarded "
               "ones); turning rate: slope of its heading over time (deg/cycle, positive counter-clockwise seen from "
               "above); both mean +- std over seeds.", ""]
@@ -77,8 +93,9 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
                   "--out to finish.", ""]
 
     central = set(runs.condition_id[runs.centralized == 1]) if "centralized" in runs else set()
+    context = _Context(plan, tables, metrics, curves, M.event_recovery(steps), figures, central)
     for experiment in plan["experiments"]:
-        lines += _experiment_section(experiment, metrics, curves, steps, figures, central)
+        lines += _experiment_section(experiment, context)
     lines += _decentralization_section(metrics, steps, central)
     backends = store.root / f"{B.TABLE}.parquet"
     if backends.is_file():
@@ -86,6 +103,7 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
     if plan["scans"]:
         lines += ["## Scans", ""]
         lines += _scan_section(plan, scans, figures)
+    lines += _claims_section({**tables, "metrics": metrics, "curves": curves})
     failed = runs[runs.status == "failed"]
     failed_scans = tables["jobs"][(tables["jobs"].kind == "scan") & (tables["jobs"].status == "failed")]
     if len(failed) or len(failed_scans):
@@ -100,13 +118,48 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
     return path
 
 
-def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.DataFrame, steps: pd.DataFrame,
-                        figures: Path, central: set[str]) -> list[str]:
+@dataclass
+class _Context:
+    """What every experiment's section reads: the plan, the store's tables and what the report computed."""
+
+    plan: dict
+    tables: dict[str, pd.DataFrame]
+    metrics: pd.DataFrame
+    curves: pd.DataFrame
+    recovery: pd.DataFrame
+    """metrics.event_recovery of every condition."""
+    figures: Path
+    central: set[str]
+
+    def __post_init__(self):
+        steps, units = self.tables["steps"], self.tables.get("units", pd.DataFrame())
+        self._steps = steps.groupby("condition_id", sort=False).indices if len(steps) else {}
+        self._units = units.groupby("run_id", sort=False).indices if len(units) and "run_id" in units else {}
+
+    def steps_of(self, condition_id: str) -> pd.DataFrame:
+        """The steps of a condition's finished runs, in plan order."""
+        rows = self._steps.get(condition_id)
+        return self.tables["steps"].iloc[rows] if rows is not None else self.tables["steps"].iloc[:0]
+
+    def has_units(self, *columns: str) -> bool:
+        """Whether the store holds units tables with these columns."""
+        units = self.tables.get("units", pd.DataFrame())
+        return bool(self._units) and set(columns) <= set(units.columns)
+
+    def units_of(self, run_id: str) -> pd.DataFrame:
+        """A finished run's units table (empty if the store has none for it)."""
+        units = self.tables.get("units", pd.DataFrame())
+        rows = self._units.get(run_id)
+        return units.iloc[rows] if rows is not None else units.iloc[:0]
+
+
+def _experiment_section(experiment: dict, ctx: _Context) -> list[str]:
     name = experiment["name"]
+    central = ctx.central
     lines = [f"## {name}", ""]
     if experiment.get("description"):
         lines += [experiment["description"], ""]
-    mine = metrics.set_index("condition_id").reindex(experiment["condition_ids"]).reset_index()
+    mine = ctx.metrics.set_index("condition_id").reindex(experiment["condition_ids"]).reset_index()
     varying = _display_columns(experiment["varying"])
     fixed = [c for c in ("shape", "learner", "step_size", "temperature", "noise", "environment", "events", "steps")
              if c not in varying]
@@ -114,11 +167,8 @@ def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.Data
         first = mine.iloc[0]
         lines += ["Fixed: " + ", ".join(f"{c} = {_cell_value(first, c, central)}" for c in fixed if c in mine) + ".",
                   ""]
-    with_events = "recovery_step" in mine and bool(np.isfinite(mine.recovery_step.astype(float)).any())
     header = [*varying, "runs", "final Ubar", "U_eq", "U_0", "k_0", f"steps to {M.THRESHOLD:g} U_eq", "reached",
               "acceptance (end)", "of scan best", "U along heading", "turning rate (deg/cycle)"]
-    if with_events:
-        header += ["event at", f"steps to regain {M.RECOVERY_FRACTION:g} of before", "recovered"]
     lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for _, row in mine.iterrows():
         runs = f"{row.runs - row.failed - row.missing}" + (f" ({row.failed} failed)" if row.failed else "") \
@@ -130,28 +180,227 @@ def _experiment_section(experiment: dict, metrics: pd.DataFrame, curves: pd.Data
             _pm(row.steps_to_threshold, row.steps_to_threshold_std, 1),
             _fmt(row.reached_fraction, 2), _fmt(row.acceptance_final, 2), _fmt(row.learned_fraction, 2),
             _pm(row.final_u_heading, row.final_u_heading_std), _pm(row.turning_rate, row.turning_rate_std, 3)]
-        if with_events:
-            never = row.recovered_fraction == 0
-            cells += [str(int(row.recovery_step)) if np.isfinite(row.recovery_step) else "-",
-                      "never" if never else _pm(row.recovery_steps, row.recovery_steps_std, 1),
-                      _fmt(row.recovered_fraction, 2)]
         lines.append("| " + " | ".join(cells) + " |")
     lines.append("")
     labels = {row.condition_id: _label(row, varying) for _, row in mine.iterrows()}
-    if curves[curves.condition_id.isin(labels)].empty:
+    done = [c for c in mine.condition_id if len(ctx.steps_of(c))]
+    if not done:
         return lines + ["No finished runs yet.", ""]
-    ubar_png = _ubar_figure(name, mine, curves, labels, figures / f"{name}-ubar.png")
-    acc_png = _acceptance_figure(name, mine, curves, labels, figures / f"{name}-acceptance.png")
-    lines += [f"![Ubar vs step](figures/{ubar_png.name})", "", f"![acceptance vs step](figures/{acc_png.name})", ""]
+    marks = _event_marks(pd.concat([ctx.steps_of(c) for c in done]))
+    lines += _events_table(mine, labels, ctx.recovery, varying)
+
+    if np.isfinite(pd.concat([ctx.steps_of(c).ubar_true for c in done]).to_numpy(dtype=float)).any():
+        ubar_png = F.ubar_distribution(name, [(labels[c], ctx.steps_of(c), _row(mine, c),
+                                               _event_marks(ctx.steps_of(c))) for c in done],
+                                       ctx.figures / f"{name}-ubar.png")
+        lines += [f"![distribution of Ubar vs step](figures/{ubar_png.name})", ""]
+        if len(done) > F.MAX_PANELS:
+            lines += [f"(the first {F.MAX_PANELS} of {len(done)} conditions)", ""]
+    else:
+        lines += ["Distribution of Ubar: not drawn (no finite true Ubar in these runs' steps).", ""]
+    curves = ctx.curves
+    acc_png = F.acceptance(name, [(labels[c], curves[curves.condition_id == c]) for c in done], marks,
+                           ctx.figures / f"{name}-acceptance.png", _by_noise(mine, varying))
+    lines += [f"![acceptance vs step](figures/{acc_png.name})", ""]
     if mine.n_units.nunique() > 1:
-        scaling = _scaling_figure(name, mine, varying, figures / f"{name}-scaling.png")
+        scaling = F.scaling(name, _scaling_groups(mine, varying), ctx.figures / f"{name}-scaling.png")
         lines += [f"![scaling with the number of units](figures/{scaling.name})", ""]
-    tracks = {labels[c]: steps[steps.condition_id == c] for c in labels} if "x_m" in steps else {}
+    if marks:
+        lines += _events_figure(name, done, labels, marks, ctx)
+    lines += _landscapes(name, experiment, mine, done, labels, ctx)
+    lines += _positions(name, done, labels, ctx)
+    steps = ctx.tables["steps"]
+    tracks = {labels[c]: ctx.steps_of(c) for c in done} if "x_m" in steps else {}
     if any(table.x_m.notna().any() for table in tracks.values()):
-        path = plots.trajectory_figure(tracks, figures / f"{name}-trajectories.png",
+        path = plots.trajectory_figure(tracks, ctx.figures / f"{name}-trajectories.png",
                                        title=f"{name}: trajectories of the runs")
         lines += [f"![trajectories](figures/{path.name})", ""]
     return lines
+
+
+def _row(mine: pd.DataFrame, condition_id: str) -> pd.Series:
+    return mine.set_index("condition_id").loc[condition_id]
+
+
+def _event_marks(steps: pd.DataFrame) -> list[tuple[int, str]]:
+    """The (step, text) of every event the steps recorded, in step order, each once."""
+    if "event" not in steps or steps.empty:
+        return []
+    marked = steps[steps.event.fillna("").astype(str) != ""]
+    return sorted({(int(k), str(text)) for k, text in zip(marked.step, marked.event)})
+
+
+def _events_table(mine: pd.DataFrame, labels: dict, recovery: pd.DataFrame, varying: list[str]) -> list[str]:
+    """Per condition and event: Ubar before, just after and at the end of its stretch, and the recovery."""
+    rows = recovery[recovery.condition_id.isin(labels)] if len(recovery) else recovery
+    if not len(rows):
+        return []
+    window = M.RECOVERY_WINDOW
+    lines = [f"Events: Ubar (true, mean +- std over runs) over the {window} steps before each event, over the {window} "
+             f"steps from it on, and over the last {window} steps before the next event or the end; steps from it to "
+             f"regain {M.RECOVERY_FRACTION:g} of the level before (mean +- std over the runs that do; 'never' if none "
+             "does) and the fraction of runs that do.", "",
+             "| " + " | ".join([*(varying or ["condition"]), "event at", "event", "runs", "Ubar before", "Ubar after",
+                                "Ubar at the end", f"steps to regain {M.RECOVERY_FRACTION:g} of before",
+                                "recovered"]) + " |",
+             "|" + "---|" * (max(len(varying), 1) + 8)]
+    order = {c: i for i, c in enumerate(mine.condition_id)}
+    for _, event in rows.sort_values(["condition_id", "event_index"], key=lambda c: c.map(order)
+                                     if c.name == "condition_id" else c).iterrows():
+        row = _row(mine, event.condition_id)
+        names = [_fmt(row[c]) for c in varying] if varying else [labels[event.condition_id]]
+        never = event.recovered_fraction == 0
+        lines.append("| " + " | ".join([
+            *names, str(int(event.event_step)), _cell(event.event), str(int(event.runs)),
+            _pm(event.ubar_before, event.ubar_before_std), _pm(event.ubar_after, event.ubar_after_std),
+            _pm(event.ubar_end, event.ubar_end_std),
+            "never" if never else _pm(event.recovery_steps, event.recovery_steps_std, 1),
+            _fmt(event.recovered_fraction, 2)]) + " |")
+    return lines + [""]
+
+
+def _by_noise(mine: pd.DataFrame, varying: list[str]) -> list[tuple[str, np.ndarray, np.ndarray]] | None:
+    """Final acceptance against the noise, one line per combination of the other varying columns (None unless the
+    noise varies)."""
+    if "noise" not in varying:
+        return None
+    others = [c for c in varying if c != "noise"]
+    groups = mine.groupby(others, sort=False, dropna=False) if others else [((), mine)]
+    lines = []
+    for key, rows in groups:
+        key = key if isinstance(key, tuple) else (key,)
+        rows = rows.sort_values("noise")
+        lines.append((", ".join(_fmt(v) for v in key) or "all", rows.noise.to_numpy(dtype=float),
+                      rows.acceptance_final.to_numpy(dtype=float)))
+    return lines[:MAX_CURVES]
+
+
+def _scaling_groups(mine: pd.DataFrame, varying: list[str]) -> list[tuple[str | None, pd.DataFrame]]:
+    others = [c for c in varying if c not in ("shape", "shape_id", "n_units")]
+    groups = mine.groupby(others, sort=False, dropna=False) if others else [((), mine)]
+    found = []
+    for key, rows in groups:
+        key = key if isinstance(key, tuple) else (key,)
+        found.append((", ".join(f"{c} {_fmt(v)}" for c, v in zip(others, key)) or None, rows))
+    return found[:MAX_CURVES]
+
+
+def _events_figure(name: str, done: list[str], labels: dict, marks: list[tuple[int, str]], ctx: _Context
+                   ) -> list[str]:
+    cut = any(text.startswith("cut ") or "; cut " in text for _, text in marks)
+    conditions = []
+    for c in done[:MAX_CURVES]:
+        steps = ctx.steps_of(c)
+        pieces = None
+        if cut:
+            units = [ctx.units_of(r) for r in steps.run_id.unique()]
+            units = [u for u in units if len(u)]
+            pieces = M.piece_curves(pd.concat(units)) if units else None
+        conditions.append((labels[c], steps, pieces))
+    path = F.events(name, conditions, marks, ctx.figures / f"{name}-events.png")
+    lines = [f"![Ubar around the events](figures/{path.name})", ""]
+    if cut and all(p is None or not len(p) for _, _, p in conditions):
+        lines += ["Ubar per piece: not drawn (the store has no units tables for these runs).", ""]
+    return lines
+
+
+def _linked_scans(experiment: dict, mine: pd.DataFrame, marks: list[tuple[int, str]], plan: dict) -> list[dict]:
+    """The plan's scans that go with an experiment (morphbench.bench.suite, 'Scans of an experiment')."""
+    by_name = {scan["name"]: scan for scan in plan["scans"]}
+    if experiment.get("scans"):
+        return [by_name[n] for n in experiment["scans"] if n in by_name]
+    damages = {part for _, text in marks for part in text.split("; ") if part.startswith("damage ")}
+    grounds = {(row.shape_id, row.physics, row.environment_id) for _, row in mine.iterrows()
+               if {"shape_id", "physics", "environment_id"} <= set(row.index)}
+    return [scan for scan in plan["scans"] if scan["columns"].get("damage", "none") in {"none", *damages}
+            and (scan["columns"]["shape_id"], scan["columns"]["physics"], scan["columns"].get("environment_id"))
+            in grounds]
+
+
+def _stretch(steps: pd.DataFrame, damage: str) -> tuple[float, float] | None:
+    """The steps [first, end) of one run that a scan with ``damage`` ('none' or a damage event's text) describes:
+    a healthy one up to the first event, a damaged one from the event that caused that damage to the next event;
+    None if the run has no such stretch."""
+    marks = _event_marks(steps)
+    if damage == "none":
+        return (0, marks[0][0] if marks else math.inf)
+    for i, (step, text) in enumerate(marks):
+        if damage in text.split("; "):
+            return (step, marks[i + 1][0] if i + 1 < len(marks) else math.inf)
+    return None
+
+
+def _landscapes(name: str, experiment: dict, mine: pd.DataFrame, done: list[str], labels: dict, ctx: _Context
+                ) -> list[str]:
+    """The 3-unit scans of the experiment with one run per learner drawn on each (over the stretch it describes)."""
+    steps_all = pd.concat([ctx.steps_of(c) for c in done])
+    scans = [s for s in _linked_scans(experiment, mine, _event_marks(steps_all), ctx.plan)
+             if s["columns"]["n_units"] == 3]
+    if not scans:
+        return []
+    table, lines, panels = ctx.tables["scans"], [], []
+    units_known = ctx.has_units("step", "phase_tried")
+    for scan in scans:
+        columns = scan["columns"]
+        points = table[table.scan_id == scan["id"]] if len(table) else table
+        if len(points) < columns["samples"]:
+            lines.append(f"Landscape {scan['name']}: not drawn ({len(points)} of {columns['samples']} points measured "
+                         "yet).")
+            continue
+        damage = columns.get("damage", "none")
+        trails, spans = [], []
+        mine_here = [c for c in done if _matches(_row(mine, c), columns)]
+        for learner in dict.fromkeys(_row(mine, c).learner for c in mine_here):
+            condition_id = next(c for c in mine_here if _row(mine, c).learner == learner)
+            steps = ctx.steps_of(condition_id)
+            for run_id, run_steps in steps.groupby("run_id", sort=False):
+                stretch = _stretch(run_steps, damage)
+                units = ctx.units_of(run_id) if units_known else pd.DataFrame()
+                if stretch is None or not len(units):
+                    continue
+                units = units[(units.step >= stretch[0]) & (units.step < stretch[1])]
+                if len(units):
+                    seed = int(run_steps.seed.iloc[0])
+                    trails.append((f"{labels[condition_id]}, seed {seed}", M.phase_differences(units)))
+                    spans.append((int(units.step.min()), int(units.step.max())))
+                break
+        what = "healthy" if damage == "none" else damage
+        span = f", steps {min(a for a, _ in spans)}-{max(b for _, b in spans)}" if spans else ", no run on it"
+        panels.append((f"scan {scan['name']} ({what}){span}", points[["dphi_2", "dphi_3", "ubar"]], trails))
+    if panels and any(trails for _, _, trails in panels):
+        path = F.landscapes(name, panels, ctx.figures / f"{name}-landscapes.png")
+        lines += [f"![phases tried on the landscapes](figures/{path.name})"]
+    elif panels:
+        lines.append(f"Landscapes {', '.join(s['name'] for s in scans)}: no run drawn (no finished run of this "
+                     "experiment with unit phases recorded on their shape, physics and ground).")
+    return [part for line in lines for part in (line, "")]  # each its own paragraph
+
+
+def _matches(row: pd.Series, columns: dict) -> bool:
+    """Whether a condition runs on a scan's shape, physics and ground."""
+    return (row.get("shape_id") == columns["shape_id"] and row.get("physics") == columns["physics"]
+            and row.get("environment_id") == columns.get("environment_id"))
+
+
+def _positions(name: str, done: list[str], labels: dict, ctx: _Context) -> list[str]:
+    """Start and end positions of a few runs: the first seeds of each condition in turn."""
+    if not ctx.has_units("x_m", "step", "unit"):
+        return ["Start and end positions: not drawn (the store has no unit positions: units.parquet without x_m).",
+                ""]
+    per_condition = {c: list(ctx.steps_of(c).drop_duplicates("run_id")[["run_id", "seed"]].itertuples(index=False))
+                     for c in done}
+    chosen = []
+    for k in range(max(len(v) for v in per_condition.values())):
+        for c in done:
+            if k < len(per_condition[c]) and len(chosen) < MAX_POSITION_RUNS:
+                run_id, seed = per_condition[c][k]
+                table = ctx.units_of(run_id)
+                if len(table) and table.x_m.notna().any():
+                    chosen.append((f"{labels[c]}, seed {seed}", table))
+    if not chosen:
+        return ["Start and end positions: not drawn (these runs were stored without unit positions).", ""]
+    path = F.positions(name, chosen, ctx.figures / f"{name}-positions.png")
+    return [f"![start and end positions](figures/{path.name})", ""]
 
 
 def _cell_value(row, column: str, central: set[str]) -> str:
@@ -223,93 +472,52 @@ def _mean_std(values: np.ndarray) -> tuple[float, float]:
 
 
 def _scan_section(plan: dict, scans: pd.DataFrame, figures: Path) -> list[str]:
-    lines = ["| scan | shape | points | max Ubar | at | min Ubar | at |", "|---|---|---|---|---|---|---|"]
+    damaged = any(scan["columns"].get("damage", "none") != "none" for scan in plan["scans"])
+    lines = ["| scan | shape | " + ("damage | " if damaged else "") + "points | max Ubar | at | min Ubar | at |",
+             "|---|---|" + ("---|" if damaged else "") + "---|---|---|---|---|"]
     pictures = []
     for scan in plan["scans"]:
         points = scans[scans.scan_id == scan["id"]] if len(scans) else scans
         columns = scan["columns"]
+        damage = columns.get("damage", "none")
+        first = f"| {scan['name']} | {columns['shape']} | " + (f"{damage} | " if damaged else "")
         dphi = [f"dphi_{i}" for i in range(2, columns["n_units"] + 1)]
         if points.empty:
-            lines.append(f"| {scan['name']} | {columns['shape']} | 0 of {columns['samples']} | | | | |")
+            lines.append(f"{first}0 of {columns['samples']} | | | | |")
             continue
         points = points[[*dphi, "ubar"]].reset_index(drop=True)
         best, worst = points.loc[points.ubar.idxmax()], points.loc[points.ubar.idxmin()]
         where = lambda row: ", ".join(f"{c} {row[c]:.2f}" for c in dphi)  # noqa: E731
-        lines.append(f"| {scan['name']} | {columns['shape']} | {len(points)} of {columns['samples']} | "
+        lines.append(f"{first}{len(points)} of {columns['samples']} | "
                      f"{best.ubar:+.2f} | {where(best)} | {worst.ubar:+.2f} | {where(worst)} |")
         if len(points) == columns["samples"]:
+            what = "" if damage == "none" else f", {damage}"
             path = plots.scan_figure(points, figures / f"scan-{scan['name']}.png",
-                                     title=f"{columns['shape']}: Ubar at fixed phases ({scan['name']})")
+                                     title=f"{columns['shape']}{what}: Ubar at fixed phases ({scan['name']})")
             pictures.append(f"![scan {scan['name']}](figures/{path.name})")
     return lines + [""] + [p + "\n" for p in pictures]
 
 
-def _ubar_figure(name, mine, curves, labels, path: Path) -> Path:
-    ids = [c for c in mine.condition_id if c in set(curves.condition_id)][:MAX_PANELS]
-    n_cols = min(3, len(ids))
-    n_rows = math.ceil(len(ids) / n_cols)
-    fig, axes = plt.subplots(n_rows, n_cols, figsize=(4.2 * n_cols, 3.0 * n_rows), sharey=True, squeeze=False)
-    by_id = mine.set_index("condition_id")
-    for ax, condition_id in zip(axes.flat, ids):
-        c = curves[curves.condition_id == condition_id]
-        ax.fill_between(c.step, c.q10, c.q90, alpha=0.2, color="C0", lw=0, label="10-90%")
-        ax.fill_between(c.step, c.q25, c.q75, alpha=0.35, color="C0", lw=0, label="25-75%")
-        ax.plot(c.step, c.q50, color="C0", lw=1.2, label="median")
-        row = by_id.loc[condition_id]
-        if np.isfinite(row.u_eq) and np.isfinite(row.k_0) and row.plateau:
-            k = c.step.to_numpy(dtype=float)
-            ax.plot(k, row.u_eq - (row.u_eq - row.u_0) * np.exp(-k / row.k_0), "k--", lw=0.8, label="fit")
-        if np.isfinite(row.scan_best_ubar):
-            ax.axhline(row.scan_best_ubar, color="C3", ls=":", lw=1, label="scan best")
-        if np.isfinite(row.get("recovery_step", math.nan)):
-            ax.axvline(row.recovery_step, color="C2", ls="-.", lw=1, label="event")
-        ax.axhline(0, color="k", lw=0.4)
-        ax.set_title(f"{labels[condition_id]} ({int(c.runs.max())} runs)", fontsize="small")
-        ax.set_xlabel("learning step")
-    for ax in axes[:, 0]:
-        ax.set_ylabel("Ubar (mm/cycle)")
-    for ax in list(axes.flat)[len(ids):]:
-        ax.set_visible(False)
-    axes.flat[0].legend(fontsize="x-small", loc="lower right")
-    fig.suptitle(f"{name}: Ubar over seeds")
-    return plots.save_figure(fig, path, dpi=100)
-
-
-def _acceptance_figure(name, mine, curves, labels, path: Path) -> Path:
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for i, condition_id in enumerate(mine.condition_id):
-        c = curves[(curves.condition_id == condition_id) & (curves.step > 0)]
-        if len(c):
-            ax.plot(c.step, c.acceptance.rolling(10, min_periods=1).mean(), lw=1, color=f"C{i % 10}",
-                    label=labels[condition_id])
-    ax.set_ylim(-0.02, 1.02)
-    ax.set_xlabel("learning step")
-    ax.set_ylabel("acceptance (10-step mean)")
-    if len(mine) <= 12:
-        ax.legend(fontsize="x-small")
-    ax.set_title(f"{name}: acceptance over seeds and units")
-    return plots.save_figure(fig, path, dpi=100)
-
-
-def _scaling_figure(name, mine, varying, path: Path) -> Path:
-    others = [c for c in varying if c not in ("shape", "shape_id", "n_units")]
-    fig, (ax_u, ax_k) = plt.subplots(1, 2, figsize=(10, 4))
-    groups = mine.groupby(others, sort=False) if others else [((), mine)]
-    for i, (key, rows) in enumerate(groups):
-        rows = rows.sort_values("n_units")
-        key = key if isinstance(key, tuple) else (key,)
-        label = ", ".join(f"{c} {_fmt(v)}" for c, v in zip(others, key)) or None
-        ax_u.plot(rows.n_units, rows.u_eq.where(rows.plateau.astype(bool)), "o-", color=f"C{i % 10}", label=label)
-        ax_k.errorbar(rows.n_units, rows.steps_to_threshold, yerr=rows.steps_to_threshold_std.fillna(0), fmt="o-",
-                      color=f"C{i % 10}", capsize=3, label=label)
-    ax_u.set_xlabel("active units N")
-    ax_u.set_ylabel("U_eq (mm/cycle)")
-    ax_k.set_xlabel("active units N")
-    ax_k.set_ylabel(f"steps to {M.THRESHOLD:g} U_eq")
-    if others:
-        ax_u.legend(fontsize="x-small")
-    fig.suptitle(f"{name}: scaling with the number of units")
-    return plots.save_figure(fig, path, dpi=100)
+def _claims_section(tables: dict[str, pd.DataFrame]) -> list[str]:
+    """The paper's quantitative statements against what the tables measure (morphbench.bench.claims)."""
+    lines = ["## Claims", "",
+             "The paper's quantitative statements (shared/spec/robotic-matter.md, section 3), each measured on this "
+             "suite's tables: 'holds' applies the rule to the measured value; 'not measured' says what the suite "
+             "lacks.", "",
+             "| claim | scenario | statement | paper | measured | measured on | holds if | holds |",
+             "|---|---|---|---|---|---|---|---|"]
+    for verdict in C.check(tables):
+        claim, measured = verdict.claim, verdict.measured
+        unit = f" {claim.unit}" if claim.unit else ""
+        if measured is None:
+            value, on, holds = "-", _cell(verdict.reason), "not measured"
+        else:
+            value = "never" if measured.value == math.inf else _fmt(float(measured.value))
+            value += unit if value not in ("-", "never") else ""
+            on, holds = _cell(measured.on), "yes" if verdict.holds else "no"
+        lines.append(f"| {claim.id} | {claim.scenario} | {_cell(claim.statement)} | {_fmt(claim.paper)}{unit} | "
+                     f"{value} | {on} | {claim.rule_text()} | {holds} |")
+    return lines + [""]
 
 
 def _display_columns(varying) -> list[str]:

@@ -16,6 +16,8 @@ A suite file is TOML::
     seeds = 10                          # seeds 0..9; or seed = 3, or seed = [0, 3, 7]
     steps = 300                         # learning steps (a number or a list of numbers)
     learner = {name = ["thermal", "flaky"], step_size = [0.1, 0.025]}   # name and LearnerParams fields
+    scans = ["S3", "S3-damaged"]        # optional: the scans its figures draw its runs on (see "Scans of an
+                                        #   experiment" below); not a run-configuration key, never an axis
     [experiment.environment]            # EnvironmentParams fields, as a run file's [environment]
     noise = [0.0, 0.5, 1.0]             # mm/cycle, Gaussian noise on each measured velocity
     [experiment.physics]                # preset (default, fast, reference, quasistatic) and PhysicsParams fields
@@ -35,6 +37,8 @@ A suite file is TOML::
     physics = "default"                 # a preset
     environment = {friction_scale = 1.5}   # optional: the EnvironmentParams the scan runs in (no noise: scans
                                            #   measure the true velocity)
+    damage = {unit = 2, mode = "no-inflate"}   # optional: the assembly is damaged from the start, as a damage event
+                                               #   does it (morphbench.experiment.events: the same fields and checks)
 
 Axes: every list is an axis, at any depth (``[experiment.physics] timestep = [0.005, 0.01]``), except ``events``,
 one list of event tables applied to every run. A list of tables is an axis of tables, each of which may sweep its
@@ -55,6 +59,17 @@ The first suites' keys are still read, as aliases of the run-configuration keys:
 ``learners`` (``learner.name``), ``[experiment.learner_params]`` (``learner.*``), ``noise`` (``environment.noise``,
 in each environment), ``environments`` (``environment``, a list of tables), ``seeds = [...]`` (``seed``) and
 ``physics = "fast"`` (``physics.preset``). A value given both ways in one table is a ConfigError.
+
+Scans of an experiment: the report draws an experiment's runs on landscapes (on a 3-unit map, the phase differences
+its learners tried). ``scans = [names]`` names the scans an experiment's figures use; without it they are the
+suite's scans of the experiment's shape, physics and ground that are healthy or have the very damage (unit and mode)
+of one of the experiment's events. Either way, a scan describes the part of a run whose world it measured: a healthy
+scan the steps before the run's first event, a damaged scan the steps from the damage event that matches it until
+the next event. So an experiment with a damage event at step 300 and ``scans = ["S3", "S6-damaged"]`` shows its
+runs' steps 0-299 on S3 and 300 onwards on S6-damaged. A named scan must be a scan of the suite; one of another
+shape, physics or ground is drawn without runs on it. The report's 'of scan best' (learned Ubar over the best Ubar of
+a scan) always takes the healthy scans of the same shape, physics and ground, named or not: a damaged landscape is
+no measure of what the healthy robot could do.
 
 Every key is checked: an unknown key, a value of the wrong type or out of range, a missing morphology file or an
 unusable learner raises ``ConfigError`` naming the suite file and the key as written (``experiment[S4].noise``).
@@ -83,7 +98,7 @@ from morphbench import params as P
 from morphbench.bench.identity import config_identity, environment_id, shape_id, shape_identity, stable_hash
 from morphbench.errors import ConfigError
 from morphbench.experiment.config import RUN_KEYS, run_config_from_table
-from morphbench.experiment.events import Event
+from morphbench.experiment.events import DamageEvent, Event, parse_event
 from morphbench.experiment.run import RunConfig
 from morphbench.experiment.scan import DEFAULT_CYCLES, DEFAULT_DISCARD, scan_phases
 from morphbench.files import is_file, read_toml_with_text
@@ -91,9 +106,10 @@ from morphbench.shapes import Shape, load_shape, params_from_table
 
 ALIASES = ("shapes", "learners", "learner_params", "noise", "environments", "seeds")
 """The first suites' keys, still read: translated into run-configuration keys (_translate)."""
-EXPERIMENT_KEYS = ("name", *RUN_KEYS, *ALIASES)
-DEFAULT_KEYS = tuple(k for k in EXPERIMENT_KEYS if k not in ("name", "description"))
-SCAN_KEYS = ("name", "shape", "resolution", "samples", "cycles", "discard", "seed", "physics", "environment")
+EXPERIMENT_KEYS = ("name", "scans", *RUN_KEYS, *ALIASES)
+DEFAULT_KEYS = tuple(k for k in EXPERIMENT_KEYS if k not in ("name", "description", "scans"))
+SCAN_KEYS = ("name", "shape", "resolution", "samples", "cycles", "discard", "seed", "physics", "environment",
+             "damage")
 SUITE_KEYS = ("name", "description", "defaults", "experiment", "scan")
 AXIS_ORDER = ("shape", "learner", "sensor", "environment", "steps", "physics")
 """The matrix's axes, the first varying slowest: runs are listed in the order the first suites listed them."""
@@ -140,6 +156,8 @@ class ScanSpec:
     discard: int
     phases: np.ndarray
     environment: P.EnvironmentParams = field(default_factory=P.EnvironmentParams)
+    damage: DamageEvent | None = None
+    """the assembly's damage from the start (None: healthy)."""
 
     def part_ids(self) -> list[str]:
         n_parts = max(1, math.ceil(len(self.phases) / SCAN_PART_POINTS))
@@ -156,6 +174,7 @@ class ScanPart:
     cycles: int
     discard: int
     environment: P.EnvironmentParams
+    damage: DamageEvent | None = None
 
 
 @dataclass(frozen=True)
@@ -177,6 +196,8 @@ class Experiment:
     condition_ids: tuple[str, ...]
     varying: tuple[str, ...]
     """condition columns that take more than one value in this experiment (what its figures tell apart)."""
+    scans: tuple[str, ...] = ()
+    """the names of the scans its figures use (its ``scans`` key; empty: found by shape, physics and ground)."""
 
 
 @dataclass
@@ -196,7 +217,8 @@ class Suite:
             per_point = (scan.cycles + scan.discard) * body_cost(scan.shape)
             for k, part_id in enumerate(scan.part_ids()):
                 phases = scan.phases[k * SCAN_PART_POINTS:(k + 1) * SCAN_PART_POINTS]
-                part = ScanPart(scan.shape, phases, scan.physics, scan.cycles, scan.discard, scan.environment)
+                part = ScanPart(scan.shape, phases, scan.physics, scan.cycles, scan.discard, scan.environment,
+                                scan.damage)
                 jobs.append(Job(part_id, "scan", part, per_point * len(phases)))
         return jobs
 
@@ -256,14 +278,16 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
         where = f"experiment[{exp_name}]"
         _check_keys(raw, EXPERIMENT_KEYS, source, f"{where}.")
         exp_description = _string(raw.get("description", ""), source, f"{where}.description")
-        own, names = _translate({k: v for k, v in raw.items() if k not in ("name", "description")}, source,
+        own, names = _translate({k: v for k, v in raw.items() if k not in ("name", "description", "scans")}, source,
                                 f"{where}.")
         merged = _merge(defaults, {k: v for k, v in own.items() if k != "events"})
         if physics is not None:
             merged["physics"] = {"preset": physics}
         merged["events"] = own.get("events", defaults.get("events", []))  # an experiment's events replace the defaults'
-        suite.experiments.append(_expand_experiment(merged, {**default_names, **names}, exp_name, exp_description,
-                                                    suite.runs, ctx))
+        experiment = _expand_experiment(merged, {**default_names, **names}, exp_name, exp_description, suite.runs,
+                                        ctx)
+        suite.experiments.append(dataclasses.replace(experiment, scans=_scan_names(raw.get("scans", []), source,
+                                                                                    f"{where}.scans")))
     scan_names: set[str] = set()
     for index, raw in enumerate(scans):
         spec = _expand_scan({**raw, "physics": physics} if physics and isinstance(raw, dict) else raw, index, ctx)
@@ -273,7 +297,20 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
         if any(s.id == spec.id for s in suite.scans):
             raise ConfigError(source, f"scan[{index}]", "a scan that differs from the others (it repeats one)")
         suite.scans.append(spec)
+    for experiment in suite.experiments:
+        for name in experiment.scans:
+            if name not in scan_names:
+                raise ConfigError(source, f"experiment[{experiment.name}].scans", "names of the suite's scans ("
+                                  f"{', '.join(sorted(scan_names)) or 'it has none'})", name)
     return suite
+
+
+def _scan_names(value: Any, source: str, key: str) -> tuple[str, ...]:
+    """An experiment's ``scans``: a scan's name or a list of distinct ones."""
+    names = value if isinstance(value, list) else [value]
+    for name in names:
+        _name(name, source, key)
+    return tuple(_distinct(names, source, key))
 
 
 @dataclass
@@ -515,19 +552,26 @@ def _expand_scan(table: dict, index: int, ctx: _Context) -> ScanSpec:
         raise ConfigError(src, f"{where}.environment.noise", "no noise in a scan's environment: scans measure the "
                                                               "true velocity", environment_table["noise"])
     environment = params_from_table(P.EnvironmentParams, environment_table, src, f"{where}.environment")
-    name = _name(table.get("name", f"{shape.name}-r{resolution}"), src, f"{where}.name")
+    damage = None
+    if "damage" in table:
+        damage = parse_event(table["damage"], src, f"{where}.damage", shape.n_units, len(shape.links), kind="damage")
+    default_name = f"{shape.name}-r{resolution}" + (f"-unit{damage.unit}-{damage.mode}" if damage else "")
+    name = _name(table.get("name", default_name), src, f"{where}.name")
     phases = scan_phases(shape.n_units, resolution, samples, seed)
     sampled = shape.n_units > 3
     identity = {"shape": shape_identity(shape), "resolution": resolution, "samples": samples if sampled else None,
                 "seed": seed if sampled else None, "cycles": cycles, "discard": discard,
                 "physics": dataclasses.asdict(P.PHYSICS_PRESETS[preset]), "part_points": SCAN_PART_POINTS,
                 "environment": dataclasses.asdict(environment)}  # the default one keeps earlier scans' ids
+    if damage is not None:  # a healthy scan keeps the id it had before scans could be damaged
+        identity["damage"] = {"unit": damage.unit, "mode": damage.mode}
     scan_id = stable_hash(identity)
     columns = {"scan": name, "shape": shape.name, "shape_id": shape_id(shape), "n_units": shape.n_units,
                "resolution": resolution, "samples": len(phases), "cycles": cycles, "discard": discard, "seed": seed,
                "physics": preset, "environment": _settings_label(environment_table),
-               "environment_id": environment_id(environment)}
-    return ScanSpec(scan_id, name, shape, columns, P.PHYSICS_PRESETS[preset], cycles, discard, phases, environment)
+               "environment_id": environment_id(environment), "damage": damage.describe() if damage else "none"}
+    return ScanSpec(scan_id, name, shape, columns, P.PHYSICS_PRESETS[preset], cycles, discard, phases, environment,
+                    damage)
 
 
 # --- validation helpers -----------------------------------------------------------------------------------------

@@ -7,7 +7,7 @@ importing them (as the metrics and the report do) must not start one.
 from morphbench.lazy import export_lazily
 
 export_lazily(__name__, {
-    "Event": "events", "parse_events": "events",
+    "Event": "events", "parse_event": "events", "parse_events": "events",
     "RunRecords": "records",
     "load_run_config": "config", "run_config_from_table": "config",
     "RunConfig": "run", "make_sensor": "run", "measure": "run", "run": "run",

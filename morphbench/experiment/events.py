@@ -66,7 +66,7 @@ class Event(ABC):
     followed by its kind's fields."""
 
     step: int
-    """learning step at whose start it happens (>= 1)."""
+    """learning step at whose start it happens (>= 1; 0 for a standing condition: parse_event with a kind)."""
     kind: str = field(init=False)
     """the key of its class in EVENT_KINDS."""
 
@@ -175,24 +175,32 @@ def parse_events(items: Any, source: str, n_units: int, n_links: int) -> tuple[E
     """Validate a TOML array of event tables (``[[events]]``) against the shape they will act on."""
     if not isinstance(items, list):
         raise ConfigError(source, "events", "an array of tables ([[events]])", items)
-    events = []
-    for i, item in enumerate(items):
-        where = f"events[{i}]"
-        if not isinstance(item, dict):
-            raise ConfigError(source, where, "a table with step, kind and the kind's fields", item)
+    events = [parse_event(item, source, f"events[{i}]", n_units, n_links) for i, item in enumerate(items)]
+    return tuple(sorted(events, key=lambda e: e.step))
+
+
+def parse_event(item: Any, source: str, where: str, n_units: int, n_links: int, kind: str | None = None) -> Event:
+    """One event table (at key ``where`` of ``source``): step, kind and the kind's fields. With ``kind`` given, the
+    table holds that kind's fields only: a standing condition of a world from its start (step 0), such as the damage
+    of a scan's assembly (``damage = {unit = 2, mode = "no-inflate"}``)."""
+    standing = kind is not None
+    if not isinstance(item, dict):
+        what = f"a table of a {kind} event's fields" if standing else "a table with step, kind and the kind's fields"
+        raise ConfigError(source, where, what, item)
+    if not standing:
         kind = item.get("kind")
         if not isinstance(kind, str) or kind not in EVENT_KINDS:  # an array or table is not a kind (nor hashable)
             raise ConfigError(source, f"{where}.kind", f"one of {', '.join(EVENT_KINDS)}", kind)
-        cls = EVENT_KINDS[kind]
-        allowed = {"step", "kind", *cls.kind_fields()}
-        for key in item:
-            if key not in allowed:
-                raise ConfigError(source, f"{where}.{key}",
-                                  f"one of the keys of a {kind} event: {', '.join(sorted(allowed))}")
-        for key in allowed:
-            if key not in item:
-                raise ConfigError(source, f"{where}.{key}",
-                                  f"a value (a {kind} event needs {', '.join(sorted(allowed))})")
-        step = require_integer(item["step"], source, f"{where}.step", 1, expected="a learning step >= 1")
-        events.append(cls(step=step, **cls.parse(item, source, where, n_units, n_links)))
-    return tuple(sorted(events, key=lambda e: e.step))
+    cls = EVENT_KINDS[kind]
+    allowed = set(cls.kind_fields()) if standing else {"step", "kind", *cls.kind_fields()}
+    for key in item:
+        if key not in allowed:
+            raise ConfigError(source, f"{where}.{key}",
+                              f"one of the keys of a {kind} event: {', '.join(sorted(allowed))}")
+    for key in allowed:
+        if key not in item:
+            raise ConfigError(source, f"{where}.{key}",
+                              f"a value (a {kind} event needs {', '.join(sorted(allowed))})")
+    step = 0 if standing else require_integer(item["step"], source, f"{where}.step", 1,
+                                               expected="a learning step >= 1")
+    return cls(step=step, **cls.parse(item, source, where, n_units, n_links))

@@ -3,6 +3,10 @@
 For 2 units the scan is a curve over dphi_2, for 3 a grid over (dphi_2, dphi_3); beyond that the space is sampled
 at seeded random points. Each point is its own world (fresh, settled, ``discard`` cycles of transient dropped), so
 points are independent and the result is the same whatever the number of workers.
+
+A scan may measure a damaged assembly: ``damage``, a DamageEvent (morphbench.experiment.events, parsed with
+``parse_event(table, ..., kind="damage")``), is applied to each point's fresh world before anything moves, exactly as
+the run loop applies it at its step; Ubar is then the mean over the units that are not dead, as in a run's records.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
+from morphbench.experiment.events import DamageEvent, RunState
 from morphbench.experiment.run import measure
 from morphbench.params import DEFAULT_PHYSICS, EnvironmentParams, PhysicsParams
 from morphbench.physics import make_world
@@ -50,12 +55,19 @@ class Motion:
     """mm/cycle, (x, y) velocity of the mean of all bodies' centres on the ground."""
     turning: float
     """degrees/cycle, mean rate at which the bodies turn about the vertical (> 0 counter-clockwise from above)."""
+    scored: np.ndarray
+    """per unit: whether it counts in Ubar (not dead), as in a run's records."""
 
 
 def motion_at(shape: Shape, phases, physics: PhysicsParams = DEFAULT_PHYSICS, cycles: int = DEFAULT_CYCLES,
-              discard: int = DEFAULT_DISCARD, environment: EnvironmentParams = EnvironmentParams()) -> Motion:
-    """The assembly's motion at fixed phases, averaged over ``cycles`` after ``discard`` (a fresh world)."""
+              discard: int = DEFAULT_DISCARD, environment: EnvironmentParams = EnvironmentParams(),
+              damage: DamageEvent | None = None) -> Motion:
+    """The assembly's motion at fixed phases, averaged over ``cycles`` after ``discard`` (a fresh world, damaged by
+    ``damage`` from the start if given)."""
+    state = RunState.initial(shape.n_units, environment.noise)
     with make_world(shape, physics, environment) as world:
+        if damage is not None:
+            damage.apply(world, state)
         world.set_phases(phases)
         world.advance(world.ticks_in(discard * shape.actuator.cycle_time))
         start, start_turn = world.poses()
@@ -65,13 +77,14 @@ def motion_at(shape: Shape, phases, physics: PhysicsParams = DEFAULT_PHYSICS, cy
     turned = 2 * (np.arctan2(end_turn[:, 2], end_turn[:, 3]) - np.arctan2(start_turn[:, 2], start_turn[:, 3]))
     turned = np.angle(np.exp(1j * turned))
     return Motion(units=displacement * 1000.0 / cycles, centroid=(end - start)[:, :2].mean(axis=0) * 1000.0 / cycles,
-                  turning=float(np.degrees(turned.mean())) / cycles)
+                  turning=float(np.degrees(turned.mean())) / cycles, scored=state.alive())
 
 
 def velocity_at(shape: Shape, phases, physics: PhysicsParams = DEFAULT_PHYSICS, cycles: int = DEFAULT_CYCLES,
-                discard: int = DEFAULT_DISCARD, environment: EnvironmentParams = EnvironmentParams()) -> np.ndarray:
+                discard: int = DEFAULT_DISCARD, environment: EnvironmentParams = EnvironmentParams(),
+                damage: DamageEvent | None = None) -> np.ndarray:
     """True velocity of each unit (mm/cycle) at fixed phases, averaged over ``cycles`` after ``discard``."""
-    return motion_at(shape, phases, physics, cycles, discard, environment).units
+    return motion_at(shape, phases, physics, cycles, discard, environment, damage).units
 
 
 @dataclass(frozen=True)
@@ -85,20 +98,24 @@ class ScanPoint:
     cycles: int = DEFAULT_CYCLES
     discard: int = DEFAULT_DISCARD
     environment: EnvironmentParams = EnvironmentParams()
+    damage: DamageEvent | None = None
+    """the damage of the assembly, applied before anything moves (None: healthy)."""
 
     def ubar(self) -> float:
-        """mm/cycle, the mean true velocity of the units at these phases (``velocity_at``)."""
-        return float(np.mean(velocity_at(self.shape, self.phases, self.physics, self.cycles, self.discard,
-                                         self.environment)))
+        """mm/cycle, the mean true velocity of the units at these phases (``velocity_at``), over the units that are
+        not dead."""
+        motion = motion_at(self.shape, self.phases, self.physics, self.cycles, self.discard, self.environment,
+                           self.damage)
+        return float(np.mean(motion.units[motion.scored]))
 
 
 def scan(shape: Shape, resolution: int = 20, *, physics: PhysicsParams = DEFAULT_PHYSICS, cycles: int = DEFAULT_CYCLES,
          discard: int = DEFAULT_DISCARD, samples: int | None = None, seed: int = 0, workers: int = 1,
-         environment: EnvironmentParams = EnvironmentParams(),
+         environment: EnvironmentParams = EnvironmentParams(), damage: DamageEvent | None = None,
          progress: Callable[[int], None] | None = None) -> pd.DataFrame:
     """Ubar over phase differences: columns ``dphi_2`` ... ``dphi_N`` (cycles) and ``ubar`` (mm/cycle)."""
     phases = scan_phases(shape.n_units, resolution, samples, seed)
-    jobs = [ScanPoint(shape, p, physics, cycles, discard, environment) for p in phases]
+    jobs = [ScanPoint(shape, p, physics, cycles, discard, environment, damage) for p in phases]
     ubar = []
     with ProcessPoolExecutor(max_workers=workers) if workers > 1 else nullcontext() as pool:
         chunk = max(1, len(jobs) // (8 * workers))
