@@ -3,6 +3,7 @@ the same run, and bad paths or options caught before anything is simulated."""
 
 import argparse
 import sys
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
@@ -10,6 +11,7 @@ import pandas as pd
 import pytest
 from PIL import Image
 
+from morphbench.bench.store import Store
 from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig, run
 from morphbench.params import LearnerParams, VideoParams
@@ -115,6 +117,19 @@ def test_replay_renders_the_same_motion_as_the_live_recording(tmp_path, monkeypa
     expected = (lp.cycles_per_step + lp.discard_cycles) * CHAIN_2.actuator.cycle_time * 10 / 4
     assert abs(len(decode(tmp_path / "step1.mp4")[0]) - expected) <= 1
     assert steps == [(1, 2), (2, 2)]
+
+
+def test_a_run_of_a_suite_replays_from_its_result_json(tmp_path):
+    records = run(RunConfig(shape=CHAIN_2, steps=1, seed=2))
+    job = SimpleNamespace(kind="run", id="abc123")
+    run_dir = Store(tmp_path / "suite").save(job, {"status": "done", "steps": records.steps(), "units": records.units(),
+                                                   "summary": records.summary()})
+    assert not (run_dir / "summary.json").exists()
+    out = render_run(run_dir, tmp_path / "v.mp4", SMALL)
+    assert len(decode(out)[0]) > 5
+    (run_dir / "result.json").write_text("{}")
+    with pytest.raises(ConfigError, match="result.json: config: expected a suite run's result.json"):
+        render_run(run_dir, tmp_path / "v.mp4", SMALL)
 
 
 def test_a_replay_that_does_not_reproduce_the_records_writes_nothing(tmp_path):
