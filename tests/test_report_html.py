@@ -14,13 +14,18 @@ import subprocess
 import time
 
 import av
+import numpy as np
+import pandas as pd
 import pytest
+from PIL import Image
 
 from morphbench.bench import build_report
+from morphbench.bench import html as page_module
 from morphbench.bench.provenance import read_sessions, software_versions
-from morphbench.bench.videos import pick_runs, steps_to_show
+from morphbench.bench.videos import Video, pick_runs, steps_to_show
+from morphbench.render.writers import H264Writer
 
-from conftest import run_cli
+from conftest import ROOT, run_cli
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 
@@ -83,7 +88,7 @@ def test_the_suite_file_verbatim_and_the_versions(reference, page):
 def test_one_h264_video_per_experiment_in_the_page_and_in_videos(page):
     out, text, seconds = page
     plan = json.loads((out / "plan.json").read_text())
-    runs = __import__("pandas").read_parquet(out / "runs.parquet")
+    runs = pd.read_parquet(out / "runs.parquet")
     chosen = pick_runs(plan, runs)
     first = plan["experiments"][0]
     assert chosen[first["name"]]["id"] == first["run_ids"][0]  # first seed of the first condition: all finished
@@ -94,7 +99,7 @@ def test_one_h264_video_per_experiment_in_the_page_and_in_videos(page):
             assert stream.codec_context.name == "h264" and stream.codec_context.pix_fmt == "yuv420p"
             assert (stream.codec_context.width, stream.codec_context.height) == (480, 270)
             duration = float(stream.duration * stream.time_base)
-        steps = __import__("pandas").read_parquet(out / "runs" / chosen[experiment["name"]]["id"] / "steps.parquet")
+        steps = pd.read_parquet(out / "runs" / chosen[experiment["name"]]["id"] / "steps.parquet")
         (first_step, last), simulated = steps_to_show(steps)
         assert 8 <= simulated <= 20 and duration == pytest.approx(simulated, abs=0.2)  # speed 1: real time
         assert f'src="data:video/mp4;base64,{base64.b64encode(video.read_bytes()).decode()}"' in text
@@ -161,3 +166,49 @@ def test_a_headless_browser_shows_the_figures_and_plays_the_videos(page, tmp_pat
         duration = re.search(r'data-duration="([^"]+)"', tag)
         assert duration, "the browser loaded no video metadata"
         assert math.isfinite(float(duration.group(1))) and float(duration.group(1)) > 0
+
+
+def test_the_page_of_any_report_md(tmp_path, monkeypatch):
+    """Markdown the report may come to hold: a section per experiment or none, links to files and sites, a figure
+    that is not there; videos whose experiment has no section get one of their own, a failed rendering a note."""
+    (tmp_path / "figures").mkdir()
+    shutil.copy(ROOT / "docs" / "results.md", tmp_path / "notes.md")
+    png = tmp_path / "figures" / "a.png"
+    Image.new("RGB", (8, 6), "red").save(png)
+    clip = tmp_path / "videos" / "beta.mp4"
+    clip.parent.mkdir()
+    writer = H264Writer(clip, (16, 16), 10, clip, "test")
+    for _ in range(5):
+        writer.write(np.zeros((16, 16, 3), "uint8"))
+    writer.close()
+    plan = {"suite": "s", "experiments": [{"name": "alpha"}, {"name": "beta"}, {"name": "gamma"}], "runs": [],
+            "scans": [], "source": "s.toml"}
+    (tmp_path / "plan.json").write_text(json.dumps(plan))
+    (tmp_path / "report.md").write_text(
+        "# Suite s\n\nSee [the notes](notes.md), [a site](https://example.org) and [below](#alpha).\n\n"
+        "## alpha\n\n| a | b |\n|---|---|\n| 1 | <b>2</b> |\n\n![fig](figures/a.png)\n\n### Detail\n\ntext\n\n"
+        "![gone](figures/gone.png) ![far](https://example.org/x.png) ![up](../secret.png)\n\n## Other\n")
+    clips = [Video("alpha", run_id="r1", seed=0, label="chain-2, thermal", error="ConfigError: no shape"),
+             Video("beta", run_id="r2", seed=1, label="chain-3", path=clip, steps=(0, 1), simulated_s=14.0,
+                   codec="h264")]
+    monkeypatch.setattr(page_module, "_videos", lambda root, plan: clips)
+    text = page_module.write_html(tmp_path).read_text()
+    assert all(s.startswith("data:") for s in re.findall(r'\ssrc="([^"]*)"', text))
+    assert all(h.startswith("#") for h in re.findall(r'\shref="([^"]*)"', text))
+    assert "the notes" in text and "a site" in text and '<a href="#alpha">below</a>' in text
+    assert "<td>&lt;b&gt;2&lt;/b&gt;</td>" in text  # raw HTML of report.md is text, not markup
+    assert text.count("is not in the results directory") == 3
+    nav = text[text.index('<nav id="contents">'):text.index("</nav>")]
+    assert ('<li class="experiment"><a href="#alpha">alpha</a><ul><li><a href="#detail">Detail</a></li>'
+            '<li><a href="#alpha-video">video</a></li></ul></li>') in nav
+    assert '<a href="#videos">Videos</a>' in nav  # beta has no section of its own in report.md
+    alpha = text[text.index('<h2 id="alpha">'):text.index('<h2 id="other">')]
+    assert alpha.index('id="detail"') < alpha.index("<strong>No video</strong>: Run <code>r1</code>")
+    assert "ConfigError: no shape" in alpha
+    beta = text[text.index('<h2 id="videos">'):]
+    assert f'src="data:video/mp4;base64,{base64.b64encode(clip.read_bytes()).decode()}"' in beta
+    assert "The results directory holds no suite.toml" in text
+
+    monkeypatch.setattr(page_module, "_videos", lambda root, plan: 1 / 0)
+    text = page_module.write_html(tmp_path).read_text()
+    assert "No videos: rendering them failed (ZeroDivisionError" in text and "<video" not in text

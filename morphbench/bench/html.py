@@ -31,6 +31,7 @@ from urllib.parse import unquote, urlsplit
 from markdown_it import MarkdownIt
 
 from morphbench.bench import provenance
+from morphbench.failures import describe
 from morphbench.files import write_text
 
 SUITE_ANCHOR, VERSIONS_ANCHOR = "suite-file", "versions"
@@ -41,9 +42,12 @@ def write_html(root: str | Path, videos: bool = True) -> Path:
     one video per experiment first. Returns the page's path."""
     root = Path(root)
     plan = json.loads((root / "plan.json").read_text())
-    started = time.perf_counter()
-    clips = _videos(root, plan) if videos else None
-    note = _video_note(clips, time.perf_counter() - started)
+    started, failure = time.perf_counter(), None
+    try:
+        clips = _videos(root, plan) if videos else None
+    except Exception as exc:  # the videos are optional: the page goes on without them
+        clips, failure = None, describe(exc)
+    note = _video_note(clips, time.perf_counter() - started, failure)
     md = MarkdownIt("commonmark", {"html": False}).enable("table")
     tokens = md.parse((root / "report.md").read_text(encoding="utf-8"))
     _inline_sources(tokens, root)
@@ -220,7 +224,9 @@ def _tree(entries) -> str:
     return "".join(out)
 
 
-def _video_note(clips, seconds: float) -> str:
+def _video_note(clips, seconds: float, failure: str | None = None) -> str:
+    if failure is not None:
+        return f'<p class="note">No videos: rendering them failed ({html.escape(failure)}).</p>'
     if clips is None:
         return "<p class=\"note\">Videos were not rendered (<code>--no-videos</code>).</p>"
     made = [c for c in clips if c.path is not None and not c.reused]
