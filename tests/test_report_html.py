@@ -89,7 +89,11 @@ def test_one_h264_video_per_experiment_in_the_page_and_in_videos(page):
     out, text, seconds = page
     plan = json.loads((out / "plan.json").read_text())
     runs = pd.read_parquet(out / "runs.parquet")
-    chosen = pick_runs(plan, runs)
+    chosen = pick_runs(plan, lambda run_id: bool((runs.run_id == run_id).any()) and
+                       runs.status[runs.run_id == run_id].item() == "done")
+    assert pick_runs(plan, lambda run_id: False) == {e["name"]: None for e in plan["experiments"]}
+    second = plan["experiments"][0]["run_ids"][1]
+    assert pick_runs(plan, lambda run_id: run_id == second)[plan["experiments"][0]["name"]]["id"] == second
     first = plan["experiments"][0]
     assert chosen[first["name"]]["id"] == first["run_ids"][0]  # first seed of the first condition: all finished
     for experiment in plan["experiments"]:

@@ -2,7 +2,8 @@
 
     videos = render_videos(DIR)     # DIR/videos/<experiment>.mp4, one Video per experiment of DIR/plan.json
 
-Each experiment shows one run: the first seed of its first condition that finished (plan order). Its first learning
+Each experiment shows one run: the first seed of its first condition that finished (plan order; its result.json says
+so, whatever the consolidated tables hold). Its first learning
 steps are replayed (``morphbench.render.render_run`` on ``DIR/runs/<run_id>``, whose result.json holds the run's
 configuration; the replay is checked against the stored Ubar) up to the step that ends nearest ``VIDEO_SECONDS`` of
 simulated time, at ``REPORT_VIDEO``'s small size, in H.264 (render.writers). A video whose run, steps, parameters,
@@ -22,10 +23,12 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import pandas as pd
 
+from morphbench.bench.store import Store
 from morphbench.errors import ConfigError
 from morphbench.failures import describe
 from morphbench.files import write_text
@@ -70,17 +73,16 @@ def label(condition: dict, varying=()) -> str:
                      for k in keys if k in condition)
 
 
-def pick_runs(plan: dict, runs: pd.DataFrame) -> dict[str, dict | None]:
+def pick_runs(plan: dict, finished: Callable[[str], bool]) -> dict[str, dict | None]:
     """Per experiment, the plan entry of the run its video shows: the first seed of its first condition that has a
-    finished run; None if no run of it has finished."""
-    done = set(runs.run_id[runs.status == "done"])
+    finished run (``finished(run_id)``); None if no run of it has finished."""
     entries = {entry["id"]: entry for entry in plan["runs"]}
     chosen: dict[str, dict | None] = {}
     for experiment in plan["experiments"]:
         order = {condition: k for k, condition in enumerate(experiment["condition_ids"])}
-        candidates = [entries[run_id] for run_id in experiment["run_ids"] if run_id in done and run_id in entries]
-        candidates.sort(key=lambda e: (order.get(e["condition_id"], len(order)), e["seed"]))
-        chosen[experiment["name"]] = candidates[0] if candidates else None
+        candidates = sorted((entries[run_id] for run_id in experiment["run_ids"] if run_id in entries),
+                            key=lambda e: (order.get(e["condition_id"], len(order)), e["seed"]))
+        chosen[experiment["name"]] = next((e for e in candidates if finished(e["id"])), None)
     return chosen
 
 
@@ -96,14 +98,13 @@ def steps_to_show(steps: pd.DataFrame, seconds: float = VIDEO_SECONDS) -> tuple[
     return (0, last), float(times[pool][k])
 
 
-def render_videos(root: str | Path, plan: dict | None = None, runs: pd.DataFrame | None = None,
-                  params: VideoParams = REPORT_VIDEO, seconds: float = VIDEO_SECONDS) -> list[Video]:
+def render_videos(root: str | Path, plan: dict | None = None, params: VideoParams = REPORT_VIDEO,
+                  seconds: float = VIDEO_SECONDS) -> list[Video]:
     """One Video per experiment of ``root`` (a results directory), rendered into ``root/videos/`` or reused; never
     raises for a run that cannot be replayed (its Video says why)."""
     root = Path(root)
-    plan = plan or json.loads((root / "plan.json").read_text())
-    if runs is None:
-        runs = pd.read_parquet(root / "runs.parquet")
+    store = Store(root)
+    plan = plan or store.require_plan()
     folder = root / VIDEO_DIR
     folder.mkdir(exist_ok=True)
     names = {experiment["name"] for experiment in plan["experiments"]}
@@ -112,7 +113,7 @@ def render_videos(root: str | Path, plan: dict | None = None, runs: pd.DataFrame
             old.unlink()
     videos = []
     varying = {experiment["name"]: experiment.get("varying", []) for experiment in plan["experiments"]}
-    for name, entry in pick_runs(plan, runs).items():
+    for name, entry in pick_runs(plan, lambda run_id: store.status("run", run_id) == "done").items():
         if entry is None:
             videos.append(Video(name, error="no run of this experiment has finished"))
             continue
