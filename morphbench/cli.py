@@ -86,7 +86,8 @@ def _parser() -> argparse.ArgumentParser:
     run.set_defaults(func=_warnings_unless_failed(_cmd_run))
 
     render = sub.add_parser("render", help="replay a finished run from its records and render it to a video")
-    render.add_argument("run_dir", metavar="RUN_DIR", help="a directory written by morphbench run")
+    render.add_argument("run_dir", metavar="RUN_DIR",
+                        help="a directory written by morphbench run, or a suite's run: RESULTS_DIR/runs/RUN_ID")
     render.add_argument("--out", required=True, help="the video to write (.mp4 or .gif)")
     render.add_argument("--quiet", action="store_true")
     add_render_arguments(render, output=False)

@@ -519,7 +519,8 @@ _FRAME_PIXELS = Range(16, 4096, high_inclusive=True, integer=True, even=True)
 @dataclass(frozen=True, kw_only=True)
 class VideoParams:
     """An off-screen video of a run (morphbench.render): what it shows, how big, how fast. The container follows the
-    output file's suffix: .mp4 (H.264 where this OpenCV build can write it, else MPEG-4 part 2) or .gif."""
+    output file's suffix: .mp4 (H.264 through PyAV; without it, through OpenCV: H.264 where its build can write it,
+    else MPEG-4 part 2) or .gif."""
 
     width: int = param(640, _FRAME_PIXELS, "px")
     """px, frame width (an even number)."""

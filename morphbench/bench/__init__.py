@@ -6,11 +6,14 @@
     executors.py  a local process pool (default) or a Dask distributed cluster
     store.py      the results directory: one atomically written directory per job, consolidated tables
     runner.py     run_suite: skip what the directory holds, run the rest, save each job as it finishes
+    provenance.py the versions and machine each bench ran with (DIR/environment.json)
     metrics.py    per-condition metrics (final Ubar, exponential fit, steps to 0.8 U_eq, acceptance, scan best)
     figures.py    the report's figures of an experiment (Ubar distribution, acceptance, scaling, events,
                   landscapes with the phases tried, start and end positions), drawn from tables
     claims.py     the paper's quantitative statements, each measured on the stored tables
     report.py     figures and report.md, rebuilt from the store
+    html.py       report.html: report.md as one self-contained page (figures, videos inline), suite file, versions
+    videos.py     one short video per experiment, replayed off-screen from a stored run (DIR/videos/)
     cli.py        the `bench` and `report` subcommands (add_bench_commands)
 
 The names below are imported on first use (``morphbench.lazy``): the metrics, figures, claims and the report need no

@@ -1,7 +1,8 @@
 """The ``bench`` and ``report`` subcommands, added to the ``morphbench`` command by ``add_bench_commands``.
 
     morphbench bench SUITE --out DIR [--workers N | --scheduler ADDRESS] [--resume] [--retry-failed] [--quiet]
-    morphbench report DIR [--compare A B]
+                     [--no-report | --no-videos]
+    morphbench report DIR [--compare A B] [--no-videos]
 """
 
 from __future__ import annotations
@@ -34,20 +35,27 @@ def add_bench_commands(subparsers) -> None:
                        help="use DIR even if it holds another suite or another version of this one (its finished "
                             "runs are reused)")
     bench.add_argument("--retry-failed", action="store_true", help="run again the runs that failed last time")
-    bench.add_argument("--no-report", action="store_true", help="write the tables but not the figures and report.md")
+    bench.add_argument("--no-report", action="store_true",
+                       help="write the tables but not the figures, report.md and report.html")
+    bench.add_argument("--no-videos", action="store_true",
+                       help="report without the video of one run per experiment in report.html")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
     bench.add_argument("--physics", choices=sorted(PHYSICS_PRESETS),
                        help="run every run and scan of the suite on this physics preset instead of its own")
     bench.set_defaults(func=cmd_bench)
 
-    report = subparsers.add_parser("report", help="rebuild the tables, figures and report.md of a results directory",
-                                   description="Rebuild DIR's consolidated tables, metrics, figures and report.md "
-                                               "from its finished runs (no simulation).")
+    report = subparsers.add_parser(
+        "report", help="rebuild the tables, figures, report.md and report.html of a results directory",
+        description="Rebuild DIR's consolidated tables, metrics, figures, report.md and report.html (the same report "
+                    "as one self-contained page) from its finished runs, with a short video of one run per "
+                    "experiment replayed off-screen (a few seconds each; reused while the run is the same).")
     report.add_argument("dir", help="results directory written by 'morphbench bench'")
     report.add_argument("--compare", nargs=2, metavar=("A", "B"),
                         help="two results directories of one suite on different physics (e.g. paper-quick on "
                              "PyBullet and on the quasi-static model, their reports built): compare them condition "
                              "by condition into DIR/backends.parquet, which DIR's report shows from then on")
+    report.add_argument("--no-videos", action="store_true",
+                        help="no videos in report.html (nothing is simulated)")
     report.set_defaults(func=cmd_report)
 
 
@@ -84,8 +92,8 @@ def cmd_bench(args) -> int:
     if len(outcome.failures) > 10:
         print(f"  ... and {len(outcome.failures) - 10} more (see {args.out}/runs.parquet)")
     if not args.no_report:
-        path = build_report(args.out, outcome.tables)
-        print(f"report in {path}")
+        path = build_report(args.out, outcome.tables, videos=not args.no_videos)
+        print(f"report in {path} and {path.with_suffix('.html')}")
     runs = outcome.tables["runs"]
     return EXIT_FAILED_RUNS if (runs.status == "failed").any() or outcome.failed else 0
 
@@ -102,8 +110,8 @@ def cmd_report(args) -> int:
         from morphbench.bench.store import Store
 
         Store(args.dir).write_table(TABLE, compare(*args.compare))
-    path = build_report(args.dir)
-    print(f"report in {path}")
+    path = build_report(args.dir, videos=not args.no_videos)
+    print(f"report in {path} and {path.with_suffix('.html')}")
     return 0
 
 

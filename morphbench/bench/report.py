@@ -42,6 +42,7 @@ from morphbench.bench import backends as B  # noqa: E402
 from morphbench.bench import claims as C  # noqa: E402
 from morphbench.bench import figures as F  # noqa: E402
 from morphbench.bench import metrics as M  # noqa: E402
+from morphbench.bench.html import write_html  # noqa: E402
 from morphbench.bench.store import Store  # noqa: E402
 from morphbench.files import write_text  # noqa: E402
 
@@ -51,7 +52,7 @@ MAX_CURVES = 12
 """conditions drawn at most as lines of one plot."""
 
 
-def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None) -> Path:
+def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None, videos: bool = False) -> Path:
     """Write curves.parquet, metrics.parquet, figures/ and report.md into ``out``; returns the report's path."""
     store = Store(out)
     plan = store.require_plan()
@@ -115,6 +116,7 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None)
         lines.append("")
     path = store.root / "report.md"
     write_text(path, "\n".join(lines) + "\n")
+    write_html(store.root, videos=videos)  # report.html: this report as one page, with a video per experiment
     return path
 
 

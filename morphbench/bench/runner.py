@@ -16,6 +16,7 @@ import pandas as pd
 
 from morphbench.bench.executors import LocalExecutor
 from morphbench.bench.jobs import execute
+from morphbench.bench.provenance import record_session
 from morphbench.bench.store import Store
 from morphbench.bench.suite import Job, Suite
 from morphbench.errors import ConfigError
@@ -47,7 +48,7 @@ def run_suite(suite: Suite, out: str | Path, executor=None, *, resume: bool = Fa
     called after each job is saved; an exception it raises (like Ctrl-C) stops the suite with every finished job
     saved and the rest cancelled.
     """
-    started = time.perf_counter()
+    started, started_at = time.perf_counter(), time.time()
     executor = executor or LocalExecutor()
     store = Store(out)
     _check_directory(store, suite, resume)
@@ -76,6 +77,8 @@ def run_suite(suite: Suite, out: str | Path, executor=None, *, resume: bool = Fa
     finally:
         if bar is not None:
             bar.close()
+        if outcome.done or outcome.failed:  # the versions these jobs ran with, for the report
+            record_session(store.root, started_at, executor.describe(), outcome.done, outcome.failed)
     outcome.tables = store.consolidate(plan)
     outcome.wall_time_s = time.perf_counter() - started
     return outcome

@@ -16,7 +16,11 @@ Layout of ``DIR``::
     units.parquet        every finished run's units.parquet rows, with run_id
     scans.parquet        every scan point: scan_id, scan columns (scan, shape, resolution, ...), dphi_2.., ubar
     jobs.parquet         one row per job: job_id, kind, status, error, wall_time_s
+    environment.json     one entry per bench that ran jobs here: when, how many, executor, machine, software versions
+                         (morphbench.bench.provenance)
     curves.parquet, metrics.parquet, figures/, report.md    (morphbench.bench.report)
+    report.html, videos/ the report as one self-contained page, a video of one run per experiment
+                         (morphbench.bench.html, morphbench.bench.videos)
 
 A job directory is assembled under a temporary name and renamed into place, so it exists whole or not at all; a
 job whose directory exists is finished (done or failed: ``result.json`` says which) and is skipped when the suite

@@ -8,7 +8,7 @@ Besides physics/, this is the only package that talks to PyBullet (TinyRenderer,
     checks.py     video parameters and output paths, checked before anything is simulated
     video.py      VideoRecorder: the on_tick observer that renders frames (bodies, overlay) and owns the output file
     ground.py     the checkered ground of a frame, drawn without the simulator
-    writers.py    MP4 (OpenCV) and GIF (Pillow) writers
+    writers.py    MP4 in H.264 (PyAV; OpenCV without it) and GIF (Pillow) writers
     options.py    the --video options of the command line
     replay.py     render_run: a finished run replayed into a video
 

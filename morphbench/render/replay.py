@@ -31,20 +31,27 @@ class _Done(Exception):
 
 def load_run(run_dir: str | os.PathLike) -> tuple[RunConfig, pd.DataFrame]:
     """The configuration and recorded ``steps.parquet`` table of a finished run; ConfigError if ``run_dir`` is not a
-    run directory written by ``morphbench run``."""
+    run directory written by ``morphbench run`` (its summary.json holds the configuration) or a finished run of a
+    suite's results directory, ``DIR/runs/<run_id>/`` (its result.json holds summary.json's content under
+    ``summary``)."""
     path = Path(run_dir)
-    expected = "a run directory written by `morphbench run` (summary.json and steps.parquet)"
+    expected = ("a run directory written by `morphbench run` (summary.json and steps.parquet) or by `morphbench "
+                "bench` (DIR/runs/<run_id>: result.json and steps.parquet)")
     if not is_dir(path):
         raise ConfigError(str(run_dir), "(directory)", expected, "no such directory")
     summary_file, steps_file = path / "summary.json", path / "steps.parquet"
+    in_suite = not is_file(summary_file) and is_file(path / "result.json")
+    if in_suite:
+        summary_file = path / "result.json"
     for file in (summary_file, steps_file):
         if not is_file(file):
             raise ConfigError(str(run_dir), file.name, expected, "missing")
     try:
         summary = json.loads(summary_file.read_text(encoding="utf-8"))
-        config_data = summary["config"]
+        config_data = (summary["summary"] if in_suite else summary)["config"]
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError) as exc:
-        raise ConfigError(str(summary_file), "config", f"a summary.json written by morphbench ({exc})") from None
+        written = "a suite run's result.json" if in_suite else "a summary.json"
+        raise ConfigError(str(summary_file), "config", f"{written} written by morphbench ({exc})") from None
     config = RunConfig.from_dict(config_data, source=str(summary_file))
     try:
         steps = pd.read_parquet(steps_file)
@@ -57,7 +64,8 @@ def load_run(run_dir: str | os.PathLike) -> tuple[RunConfig, pd.DataFrame]:
 
 def render_run(run_dir: str | os.PathLike, out_path: str | os.PathLike, params: VideoParams = VideoParams(),
                progress: Callable[[int, int], None] | None = None) -> Path:
-    """Replay the run in ``run_dir`` and write its video to ``out_path`` (.mp4 or .gif); returns the path.
+    """Replay the run in ``run_dir`` (``morphbench run``'s output, or ``DIR/runs/<run_id>`` of a suite: see
+    ``load_run``) and write its video to ``out_path`` (.mp4 or .gif); returns the path.
 
     Only the learning steps up to the last one the video shows (``params.steps``) are simulated. ``progress(done,
     total)``, if given, is called after each replayed learning step (for a progress bar). Bad input (run directory,

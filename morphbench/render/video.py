@@ -332,7 +332,7 @@ class VideoRecorder:
 
     @property
     def codec(self) -> str:
-        """'avc1' (H.264), 'mp4v' (MPEG-4 part 2) or 'gif'."""
+        """'h264' (PyAV), 'avc1' (H.264 through OpenCV), 'mp4v' (MPEG-4 part 2, OpenCV without H.264) or 'gif'."""
         return self._writer.codec
 
     def __enter__(self) -> VideoRecorder:
