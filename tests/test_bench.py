@@ -706,3 +706,35 @@ def test_physics_from_the_command_line_replaces_every_runs_and_scans_physics():
     with pytest.raises(ConfigError) as info:
         load_suite(smoke, physics="slow")
     assert info.value.source == "--physics"
+
+
+def test_a_suite_names_its_physics_for_what_names_none(tmp_path):
+    """A suite's top-level physics is every run's and scan's preset unless they name their own; --physics still
+    replaces them all; a preset that does not exist is a ConfigError naming the suite file and the key."""
+    from morphbench.params import FAST_PHYSICS, QUASISTATIC_PHYSICS
+
+    chain = SHAPES / "chain-2.toml"
+    path = write_suite(tmp_path, f"""
+        physics = "quasistatic"
+        [[experiment]]
+        name = "plain"
+        shape = "{chain}"
+        steps = 2
+        [[experiment]]
+        name = "own"
+        shape = "{chain}"
+        steps = 2
+        physics = "fast"
+        [[scan]]
+        shape = "{chain}"
+        resolution = 4
+    """)
+    suite = load_suite(path)
+    by_experiment = {e.name: {suite.runs[r].config.physics for r in e.run_ids} for e in suite.experiments}
+    assert by_experiment == {"plain": {QUASISTATIC_PHYSICS}, "own": {FAST_PHYSICS}}
+    assert {scan.columns["physics"] for scan in suite.scans} == {"quasistatic"}
+    assert {spec.config.physics for spec in load_suite(path, physics="fast").runs.values()} == {FAST_PHYSICS}
+    (tmp_path / "bad.toml").write_text(path.read_text().replace('"quasistatic"', '"slow"', 1))
+    with pytest.raises(ConfigError) as info:
+        load_suite(tmp_path / "bad.toml")
+    assert info.value.key == "physics" and "bad.toml" in str(info.value.source)

@@ -5,6 +5,7 @@ A suite file is TOML::
     name = "smoke"                      # optional, default: the file's stem
     description = "what this suite is for"
 
+    physics = "quasistatic"             # optional: the preset of every run and scan that names no physics of its own
     [defaults]                          # optional: any experiment key, used where an experiment leaves it out
     steps = 10                          #   (tables merge key by key)
     seeds = 2
@@ -110,7 +111,7 @@ EXPERIMENT_KEYS = ("name", "scans", *RUN_KEYS, *ALIASES)
 DEFAULT_KEYS = tuple(k for k in EXPERIMENT_KEYS if k not in ("name", "description", "scans"))
 SCAN_KEYS = ("name", "shape", "resolution", "samples", "cycles", "discard", "seed", "physics", "environment",
              "damage")
-SUITE_KEYS = ("name", "description", "defaults", "experiment", "scan")
+SUITE_KEYS = ("name", "description", "physics", "defaults", "experiment", "scan")
 AXIS_ORDER = ("shape", "learner", "sensor", "environment", "steps", "physics")
 """The matrix's axes, the first varying slowest: runs are listed in the order the first suites listed them."""
 SUITE_DEFAULTS = {"sensor": {"kind": "ideal"}}
@@ -263,6 +264,10 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
     _check_keys(defaults, DEFAULT_KEYS, source, "defaults.")
     defaults, default_names = _translate(defaults, source, "defaults.")
     defaults = _merge(SUITE_DEFAULTS, defaults)
+    own_physics = table.get("physics")  # the suite's backend: a preset for every run and scan that names none
+    if own_physics is not None:
+        P.check_rule(P.PHYSICS_PRESET, "", own_physics, source, "physics")
+        defaults.setdefault("physics", {"preset": own_physics})
     experiments = _array_of_tables(table, "experiment", source)
     scans = _array_of_tables(table, "scan", source)
     if not experiments and not scans:
@@ -290,7 +295,9 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
                                                                                     f"{where}.scans")))
     scan_names: set[str] = set()
     for index, raw in enumerate(scans):
-        spec = _expand_scan({**raw, "physics": physics} if physics and isinstance(raw, dict) else raw, index, ctx)
+        if isinstance(raw, dict) and (physics or (own_physics is not None and "physics" not in raw)):
+            raw = {**raw, "physics": physics or own_physics}
+        spec = _expand_scan(raw, index, ctx)
         if spec.name in scan_names:
             raise ConfigError(source, f"scan[{index}].name", "a name no other scan has", spec.name)
         scan_names.add(spec.name)
