@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -19,13 +20,14 @@ from morphbench.physics import make_world
 from morphbench.physics import quasistatic as Q
 from morphbench.shapes import load_shape
 
+LIBRARY = Path(__file__).resolve().parents[1] / "shapes"
 SHAPES = ("chain-3", "chain-5", "chain-7", "chain-10", "chain-15", "chain-20")
 
 
 def ticks_of(name: str, n_ticks: int):
     """What one chain's solver is given for ``n_ticks`` ticks from rest (rest lengths beyond the empty pitch and
     friction limits)."""
-    shape = load_shape(name)
+    shape = load_shape(LIBRARY / f"{name}.toml")
     world = make_world(shape, QUASISTATIC_PHYSICS)
     world.set_phases(np.random.default_rng(0).random(shape.n_units))
     extension = world._rest_lengths(world._pressures(0.0, n_ticks, True)) - world._empty_pitch

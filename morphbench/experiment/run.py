@@ -124,17 +124,31 @@ def measure(world: World, sensors: list[Sensor], n_cycles: int, on_tick: Callabl
 
     ``on_tick(world)``, if given, is called after every physics tick (for observers such as a video recorder)."""
     n_ticks = world.ticks_in(n_cycles * world.shape.actuator.cycle_time)
-    poses = world.unit_poses()
-    for sensor in sensors:
-        sensor.reset(*poses)
-    periods = [max(1, world.ticks_in(sensor.sample_period)) for sensor in sensors]
-    every = math.gcd(*periods)
-    positions, orientations = world.advance_sampled(n_ticks, every, on_tick)
-    ticks = np.append(np.arange(every, n_ticks, every), n_ticks)  # the tick each sample follows
-    for sensor, period in zip(sensors, periods):
-        due = (ticks % period == 0) | (ticks == n_ticks)
-        sensor.sample_many(positions[due], orientations[due])
-    return [sensor.displacement() for sensor in sensors]
+    measurement = Measurement(world, sensors, n_ticks)
+    return measurement.end(*world.advance_sampled(n_ticks, measurement.every, on_tick))
+
+
+class Measurement:
+    """Sensor banks measuring over the coming ``n_ticks`` ticks of a world: started at the world's current poses,
+    ended with the poses its ``advance_sampled(n_ticks, every)`` gives (so that several worlds, or the copies of one
+    batched world, can be advanced together between the two)."""
+
+    def __init__(self, world: World, sensors: list[Sensor], n_ticks: int):
+        self.sensors, self.n_ticks = sensors, n_ticks
+        poses = world.unit_poses()
+        for sensor in sensors:
+            sensor.reset(*poses)
+        self.periods = [max(1, world.ticks_in(sensor.sample_period)) for sensor in sensors]
+        self.every = math.gcd(*self.periods)
+        """ticks between the poses the sensors need."""
+
+    def end(self, positions: np.ndarray, orientations: np.ndarray) -> list[np.ndarray]:
+        """Each bank's displacement (m), from the sampled poses (K, n_units, 3) and (K, n_units, 4)."""
+        ticks = np.append(np.arange(self.every, self.n_ticks, self.every), self.n_ticks)  # the tick each follows
+        for sensor, period in zip(self.sensors, self.periods):
+            due = (ticks % period == 0) | (ticks == self.n_ticks)
+            sensor.sample_many(positions[due], orientations[due])
+        return [sensor.displacement() for sensor in self.sensors]
 
 
 def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = None,
@@ -191,17 +205,30 @@ class RunLoop:
         self.kept = controller.initial()
         """each unit's kept phase in [0, 1), from the controller once per step."""
         self.validity = _Validity(config.shape, world)
+        cycle, lp = config.shape.actuator.cycle_time, config.learner_params
+        self.warmup_ticks = world.ticks_in(lp.warmup_cycles * cycle)
+        self.discard_ticks = world.ticks_in(lp.discard_cycles * cycle)
+        """ticks run after each phase change before measuring (the transient dropped)."""
+        self.measured_ticks = world.ticks_in(lp.cycles_per_step * cycle)
 
     def warm_up(self) -> None:
         """Start every pump at its initial kept phase and let the gait settle."""
         self.world.set_phases(self.kept)
-        self._advance(self.config.learner_params.warmup_cycles)
+        self.world.advance(self.warmup_ticks, self.observe)
 
     def step(self, step: int, records: RunRecords) -> np.ndarray:
         """Learning step ``step``, every phase in order, recorded; each unit's measured velocity (mm/cycle)."""
         applied = self.apply_events(step)
         tried = self.propose(step)
-        u_measured, u_true = self.actuate_and_measure()
+        self.world.advance(self.discard_ticks, self.observe)
+        measurement = self.start_measurement()
+        samples = self.world.advance_sampled(self.measured_ticks, measurement.every, self.on_tick)
+        return self.finish_step(step, records, applied, tried, measurement, samples)
+
+    def finish_step(self, step: int, records: RunRecords, applied: list[Event], tried: np.ndarray,
+                    measurement: Measurement, samples: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        """The rest of ``step`` once its measured cycles are simulated: measurements, validity, update, record."""
+        u_measured, u_true = self.measured(measurement, *samples)
         self.check_physics(step)
         accepted = self.update(u_measured, step)
         self.record(records, step, tried, u_measured, u_true, accepted, applied)
@@ -221,16 +248,19 @@ class RunLoop:
         self.world.set_phases(tried[self.state.order])
         return tried
 
-    def actuate_and_measure(self) -> tuple[np.ndarray, np.ndarray]:
-        """Drop ``discard_cycles`` of transient, measure ``cycles_per_step``: per unit the measured velocity (with
-        the unit's own noise; NaN for a dead unit) and the true one, mm/cycle."""
-        lp = self.config.learner_params
-        self._advance(lp.discard_cycles)
-        if self.truth is None:
-            sensed = true = measure(self.world, [self.sensor], lp.cycles_per_step, self.on_tick)[0]
-        else:
-            sensed, true = measure(self.world, [self.sensor, self.truth], lp.cycles_per_step, self.on_tick)
-        position, to_mm_per_cycle = self.state.position(), 1000.0 / lp.cycles_per_step
+    def start_measurement(self) -> Measurement:
+        """The sensors (and the ground truth) start measuring the ``cycles_per_step`` cycles after the discarded
+        ones."""
+        return Measurement(self.world, [self.sensor] if self.truth is None else [self.sensor, self.truth],
+                           self.measured_ticks)
+
+    def measured(self, measurement: Measurement, positions: np.ndarray, orientations: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Per unit the measured velocity (with the unit's own noise; NaN for a dead unit) and the true one,
+        mm/cycle, from the sampled poses of the measured cycles."""
+        displacements = measurement.end(positions, orientations)
+        sensed, true = displacements[0], displacements[-1]
+        position, to_mm_per_cycle = self.state.position(), 1000.0 / self.config.learner_params.cycles_per_step
         noise = self.state.noise
         u_true = true[position] * to_mm_per_cycle
         u_measured = sensed[position] * to_mm_per_cycle + np.array(
@@ -261,8 +291,6 @@ class RunLoop:
                          positions[position, :2], np.arctan2(axes[:, 1], axes[:, 0]),
                          "; ".join(event.describe() for event in applied))
 
-    def _advance(self, n_cycles: float) -> None:
-        self.world.advance(self.world.ticks_in(n_cycles * self.config.shape.actuator.cycle_time), self.observe)
 
 
 MAX_TILT_DEG = 45.0

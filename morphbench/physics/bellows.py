@@ -43,6 +43,7 @@ class Bellows:
         frame (every body starts turned by the shape's yaw)."""
         self.intact = np.ones(len(shape.links), dtype=bool)
         """for each link, False once it has been cut."""
+        self._pieces: tuple[bytes, list[list[int]]] | None = None
         self.pressure = np.zeros(len(shape.links))
         """current pressure (0..1) of each bellows."""
         self.phases = np.zeros(shape.n_units)
@@ -50,6 +51,7 @@ class Bellows:
         self.damage = ["" for _ in shape.units]
         """per active unit (unit order): '' (healthy) or a mode of DAMAGE_MODES."""
         self._stuck_length = np.full(len(shape.links), np.nan)
+        self._any_stuck = False
         self._extends = self._extending()
         self._friction_scale = environment.friction_scale
         self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
@@ -81,8 +83,9 @@ class Bellows:
         """(n_ticks, n_links) rest length of each bellows: a damaged one cannot inflate, a stuck one keeps its
         length."""
         rest = self._empty_pitch + self._strokes * trajectory * self._extends
-        stuck = ~np.isnan(self._stuck_length)
-        rest[:, stuck] = self._stuck_length[stuck]
+        if self._any_stuck:
+            stuck = ~np.isnan(self._stuck_length)
+            rest[:, stuck] = self._stuck_length[stuck]
         return rest
 
     def _extending(self) -> np.ndarray:
@@ -109,6 +112,7 @@ class Bellows:
         driven = self.link_units == unit
         self._stuck_length[driven] = (self._empty_pitch + self._strokes * self.pressure)[driven] \
             if mode == "stuck" else np.nan
+        self._any_stuck = bool(np.isfinite(self._stuck_length).any())
 
     def set_friction_scale(self, scale: float) -> None:
         """Multiply every body's friction by ``scale`` from now on (instead of the environment's scale)."""
@@ -120,8 +124,12 @@ class Bellows:
 
     def pieces(self) -> list[list[int]]:
         """Connected groups of body indices over the intact links, the piece holding body 0 first."""
-        return connected_groups(len(self.shape.bodies),
-                                [link for link, intact in zip(self._links, self.intact) if intact])
+        key = self.intact.tobytes()  # read every learning step, changed only by a cut
+        if self._pieces is None or self._pieces[0] != key:
+            groups = connected_groups(len(self.shape.bodies),
+                                      [link for link, intact in zip(self._links, self.intact) if intact])
+            self._pieces = (key, groups)
+        return [list(group) for group in self._pieces[1]]
 
     def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
         """Run ``n_ticks`` ticks. ``on_tick(k)`` is called after tick k (0-based) if given and k + 1 is a multiple
