@@ -292,7 +292,6 @@ class RunLoop:
                          "; ".join(event.describe() for event in applied))
 
 
-
 MAX_TILT_DEG = 45.0
 """A body tipped further than this from upright has left the model: units slide upright on their four feet."""
 MAX_REACH_PER_CYCLE = 3.0
@@ -335,7 +334,8 @@ class _Validity:
         d = positions - self.positions
         moved = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])  # hypot: no overflow when a body flew off
         speed = moved / cycles if cycles > 0 else np.zeros(len(moved))
-        for body in range(len(positions)):
+        outside = ~finite | ~(tilt <= MAX_TILT_DEG) | ~(rise <= self.height) | ~(speed <= self.max_speed)
+        for body in np.flatnonzero(outside):  # nearly always none: name the first one found
             if not finite[body]:
                 what = f"has a pose that is not finite (position {positions[body].tolist()}, orientation " \
                        f"{orientations[body].tolist()})"

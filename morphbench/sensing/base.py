@@ -15,7 +15,9 @@ import numpy as np
 def forward_axes(orientations: np.ndarray) -> np.ndarray:
     """Unit vectors of each body's own +x axis in the world, from (N, 4) quaternions (x, y, z, w)."""
     x, y, z, w = np.asarray(orientations, dtype=float).T
-    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], axis=1)
+    axes = np.empty((len(x), 3))
+    axes[:, 0], axes[:, 1], axes[:, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)
+    return axes
 
 
 def tilts(orientations: np.ndarray) -> np.ndarray:
