@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from morphbench.bench.runner import batched
 from morphbench.bench import DaskExecutor, LocalExecutor, add_bench_commands, build_report, load_suite, run_suite
 from morphbench.bench import jobs as bench_jobs
 from morphbench.bench.metrics import condition_metrics, curves, fit_exponential, recovery_steps, steps_to_reach
@@ -67,6 +68,10 @@ def test_one_worker_and_a_dask_cluster_give_the_same_tables(reference, tmp_path)
     suite_path, _, outcome = reference
     one = run_suite(load_suite(suite_path), tmp_path / "one", LocalExecutor(1), progress=False)
     assert_same_tables(one.tables, outcome.tables)
+    # seeds run together (the default) or each alone: the same tables
+    alone = run_suite(load_suite(suite_path), tmp_path / "alone", LocalExecutor(1), progress=False, batch_seeds=1)
+    assert_same_tables(alone.tables, outcome.tables)
+    assert {job.kind for job in batched(load_suite(suite_path).jobs())} == {"batch", "scan"}
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError:

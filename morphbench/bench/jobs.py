@@ -15,28 +15,53 @@ import numpy as np
 import pandas as pd
 
 from morphbench.errors import ConfigError, PhysicsError
+from morphbench.experiment.batch import run_batch
 from morphbench.experiment.run import run
 from morphbench.experiment.scan import ScanPoint
 from morphbench.failures import describe
 
 
 def execute(job) -> dict[str, Any]:
-    """``{'status': 'done' | 'failed', 'error', 'traceback', 'wall_time_s', ...tables}`` for one job."""
+    """``{'status': 'done' | 'failed', 'error', 'traceback', 'wall_time_s', ...tables}`` for one job; for a batch
+    (``kind`` 'batch', its payload run jobs of one condition), ``{'status': 'batch', 'results': [...]}``, one such
+    result per run, as each would have alone."""
+    if job.kind == "batch":
+        return {"status": "batch", "results": _batch(job.payload)}
     started = time.perf_counter()
     try:
-        result = _run(job.payload) if job.kind == "run" else _scan(job.payload)
-    except (ConfigError, PhysicsError) as exc:  # their one line names the plug-in or body, what and where
-        result = {"status": "failed", "error": str(exc), "traceback": traceback.format_exc()}
-    except (Exception, SystemExit) as exc:  # a plug-in calling sys.exit() fails its run, not the suite
-        result = {"status": "failed", "error": describe(exc), "traceback": traceback.format_exc()}
+        result = _finished(run(job.payload)) if job.kind == "run" else _scan(job.payload)
+    except (Exception, SystemExit) as exc:
+        result = _failure(exc)
+    return _complete(result, time.perf_counter() - started)
+
+
+def _batch(jobs) -> list[dict[str, Any]]:
+    started = time.perf_counter()
+    try:
+        outcomes = run_batch([job.payload for job in jobs])
+    except (Exception, SystemExit):  # the batch as a whole could not run: each run alone says why it cannot
+        return [execute(job) for job in jobs]
+    wall = (time.perf_counter() - started) / len(jobs)
+    return [_complete(_failure(outcome) if isinstance(outcome, BaseException) else _finished(outcome), wall)
+            for outcome in outcomes]
+
+
+def _complete(result: dict[str, Any], wall_time: float) -> dict[str, Any]:
     result.setdefault("error", None)
     result.setdefault("traceback", None)
-    result["wall_time_s"] = time.perf_counter() - started
+    result["wall_time_s"] = wall_time
     return result
 
 
-def _run(config) -> dict[str, Any]:
-    records = run(config)
+def _failure(exc: BaseException) -> dict[str, Any]:
+    """A failed job's result: a ConfigError or PhysicsError by its own one line (naming the plug-in or body, what
+    and where), anything else (a plug-in calling sys.exit() fails its run, not the suite) described."""
+    error = str(exc) if isinstance(exc, (ConfigError, PhysicsError)) else describe(exc)
+    trace = "".join(traceback.format_exception(exc))
+    return {"status": "failed", "error": error, "traceback": trace}
+
+
+def _finished(records) -> dict[str, Any]:
     steps = records.steps()
     bad = non_finite_step(steps)
     if bad is not None:

@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from dataclasses import dataclass, field
@@ -19,7 +20,14 @@ from morphbench.bench.jobs import execute
 from morphbench.bench.provenance import record_session
 from morphbench.bench.store import Store
 from morphbench.bench.suite import Job, Suite
+from morphbench.experiment.batch import batchable
+from morphbench.experiment.run import RunConfig
 from morphbench.errors import ConfigError
+
+
+BATCH_SEEDS = 16
+"""seeds of a condition run together at most: enough to share the simulator's calls, few enough that the workers'
+loads stay even."""
 
 
 @dataclass
@@ -39,14 +47,16 @@ class Outcome:
 
 
 def run_suite(suite: Suite, out: str | Path, executor=None, *, resume: bool = False, retry_failed: bool = False,
-              progress: bool = True, on_result: Callable[[Job, dict], None] | None = None) -> Outcome:
+              progress: bool = True, on_result: Callable[[Job, dict], None] | None = None,
+              batch_seeds: int | None = None) -> Outcome:
     """Run every job of ``suite`` that ``out`` does not hold yet, then consolidate the tables (morphbench.bench.store).
 
     ``out`` may hold this suite's earlier (interrupted) results: its finished jobs are skipped, failed ones too
     unless ``retry_failed``. If it holds results of a different suite, or of an earlier version of this one, it is
     refused unless ``resume``: then the finished jobs both suites share are reused. ``on_result(job, result)`` is
     called after each job is saved; an exception it raises (like Ctrl-C) stops the suite with every finished job
-    saved and the rest cancelled.
+    saved and the rest cancelled. Seeds of a condition on the quasi-static chain model run together, up to
+    ``batch_seeds`` at a time (default BATCH_SEEDS; 1: each alone), with the same results.
     """
     started, started_at = time.perf_counter(), time.time()
     executor = executor or LocalExecutor()
@@ -57,23 +67,26 @@ def run_suite(suite: Suite, out: str | Path, executor=None, *, resume: bool = Fa
     store.write_plan(plan, suite.text)
     jobs = suite.jobs()
     todo = [job for job in jobs if _needs_run(store, job, retry_failed)]
-    # longest first: the long runs start early and the short ones fill the gaps at the end (tables are in plan order)
-    todo.sort(key=lambda job: -job.cost)
     outcome = Outcome(total=len(jobs), skipped=len(jobs) - len(todo))
     bar = _progress_bar(suite, todo, executor, progress)
+    # longest first: the long runs start early and the short ones fill the gaps at the end (tables are in plan order)
+    work = sorted(batched(todo, batch_seeds or BATCH_SEEDS), key=lambda job: -job.cost)
     try:
-        for job, result in executor.run(todo, execute):
-            store.save(job, result)
-            if result["status"] == "done":
-                outcome.done += 1
-            else:
-                outcome.failed += 1
-                outcome.failures.append((job.id, result.get("error") or "unknown error"))
-            if bar is not None:
-                bar.update(job.cost)
-                bar.set_postfix_str(f"{outcome.done + outcome.failed}/{len(todo)} jobs, {outcome.failed} failed")
-            if on_result is not None:
-                on_result(job, result)
+        for work_job, work_result in executor.run(work, execute):
+            pairs = zip(work_job.payload, work_result["results"]) if work_job.kind == "batch" else \
+                [(work_job, work_result)]
+            for job, result in pairs:
+                store.save(job, result)
+                if result["status"] == "done":
+                    outcome.done += 1
+                else:
+                    outcome.failed += 1
+                    outcome.failures.append((job.id, result.get("error") or "unknown error"))
+                if bar is not None:
+                    bar.update(job.cost)
+                    bar.set_postfix_str(f"{outcome.done + outcome.failed}/{len(todo)} jobs, {outcome.failed} failed")
+                if on_result is not None:
+                    on_result(job, result)
     finally:
         if bar is not None:
             bar.close()
@@ -82,6 +95,26 @@ def run_suite(suite: Suite, out: str | Path, executor=None, *, resume: bool = Fa
     outcome.tables = store.consolidate(plan)
     outcome.wall_time_s = time.perf_counter() - started
     return outcome
+
+
+def batched(jobs: list[Job], size: int = BATCH_SEEDS) -> list[Job]:
+    """The run jobs of one condition that can run together (experiment.batch) as batch jobs of up to ``size``
+    seeds, in job order; every other job as it is. Records are the same either way: only the speed differs."""
+    groups: dict[RunConfig, list[Job]] = {}
+    can: dict[RunConfig, bool] = {}
+    out: list[Job] = []
+    for job in jobs:
+        condition = dataclasses.replace(job.payload, seed=0) if job.kind == "run" else None
+        if condition is not None and can.setdefault(condition, batchable(condition)):
+            groups.setdefault(condition, []).append(job)
+        else:
+            out.append(job)
+    for members in groups.values():
+        for first in range(0, len(members), size):
+            chunk = tuple(members[first:first + size])
+            out.append(chunk[0] if len(chunk) == 1 else
+                       Job(f"batch-{chunk[0].id}", "batch", chunk, sum(job.cost for job in chunk)))
+    return out
 
 
 def _needs_run(store: Store, job: Job, retry_failed: bool) -> bool:

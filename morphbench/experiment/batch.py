@@ -39,7 +39,7 @@ def batchable(config: RunConfig) -> bool:
         return isinstance(world, QuasiStaticWorld)
 
 
-def run_batch(configs: list[RunConfig]) -> list[RunRecords | Exception]:
+def run_batch(configs: list[RunConfig]) -> list[RunRecords | BaseException]:
     """Run ``configs`` (equal but for their seeds, all ``batchable``) together; per configuration its records, or
     the exception that stopped it. Each record's wall time is the batch's shared out evenly."""
     first = configs[0]
@@ -54,7 +54,7 @@ def run_batch(configs: list[RunConfig]) -> list[RunRecords | Exception]:
                                      config.shape.n_units)
         loops.append(RunLoop(config, controller, _Copy(world, index, config.shape), None))
     records = [RunRecords(config) for config in configs]
-    outcome: list[RunRecords | Exception | None] = [None] * len(configs)
+    outcome: list[RunRecords | BaseException | None] = [None] * len(configs)
     n = first.shape.n_units
 
     def each(action) -> None:
@@ -62,7 +62,7 @@ def run_batch(configs: list[RunConfig]) -> list[RunRecords | Exception]:
             if outcome[index] is None:
                 try:
                     action(index, loop)
-                except Exception as exc:  # noqa: BLE001 - the run's failure, reported as run() would raise it
+                except (Exception, SystemExit) as exc:  # the run's failure, as run() would raise it
                     outcome[index] = exc
 
     each(lambda index, loop: loop.world.set_phases(loop.kept))
