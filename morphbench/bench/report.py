@@ -15,8 +15,8 @@ each event's recovery (metrics.event_recovery), and into ``DIR/figures/`` (morph
   shape, physics and ground: morphbench.bench.suite): each map with the phase differences tried by one run per
   learner over the stretch of the run the map describes (a damaged map: from the damage on);
 - ``<experiment>-positions.png``: the units' positions along the track at the first and last step, a few runs;
-- ``<experiment>-trajectories.png``: every run's centroid track on the ground, one colour per condition (when the
-  runs recorded one: runs stored before steps.parquet had ``x_m`` are left out);
+- ``<experiment>-trajectories.png``: the centroid tracks of the first TRACKS_PER_CONDITION runs of each condition,
+  one colour per condition (when the runs recorded one: runs stored before steps.parquet had ``x_m`` are left out);
 and ``scan-<name>.png`` per scan (a curve for 2 units, a heat map for 3, a histogram beyond). ``DIR/report.md``
 holds the tables and figures, a comparison of decentralized learners with centralized controllers when the suite
 has both, the paper's claims checked against the tables (morphbench.bench.claims) and the failed runs with their
@@ -136,12 +136,17 @@ class _Context:
     def __post_init__(self):
         steps, units = self.tables["steps"], self.tables.get("units", pd.DataFrame())
         self._steps = steps.groupby("condition_id", sort=False).indices if len(steps) else {}
+        self._cut: dict[str, pd.DataFrame] = {}
         self._units = units.groupby("run_id", sort=False).indices if len(units) and "run_id" in units else {}
 
     def steps_of(self, condition_id: str) -> pd.DataFrame:
-        """The steps of a condition's finished runs, in plan order."""
-        rows = self._steps.get(condition_id)
-        return self.tables["steps"].iloc[rows] if rows is not None else self.tables["steps"].iloc[:0]
+        """The steps of a condition's finished runs, in plan order (cut once: every figure of the condition reads
+        them, and cutting them out of a suite's table takes most of a second)."""
+        if condition_id not in self._cut:
+            rows = self._steps.get(condition_id)
+            self._cut[condition_id] = self.tables["steps"].iloc[rows] if rows is not None else \
+                self.tables["steps"].iloc[:0]
+        return self._cut[condition_id]
 
     def has_units(self, *columns: str) -> bool:
         """Whether the store holds units tables with these columns."""
@@ -153,6 +158,16 @@ class _Context:
         units = self.tables.get("units", pd.DataFrame())
         rows = self._units.get(run_id)
         return units.iloc[rows] if rows is not None else units.iloc[:0]
+
+
+TRACKS_PER_CONDITION = 12
+"""runs per condition drawn on the trajectories figure (their first seeds): thousands of tracks are one blot."""
+
+
+def _first_runs(steps: pd.DataFrame, count: int) -> pd.DataFrame:
+    """The steps of a condition's first ``count`` runs (plan order)."""
+    first = pd.unique(steps.run_id)[:count]
+    return steps[steps.run_id.isin(first)]
 
 
 def _experiment_section(experiment: dict, ctx: _Context) -> list[str]:
@@ -212,10 +227,11 @@ def _experiment_section(experiment: dict, ctx: _Context) -> list[str]:
     lines += _landscapes(name, experiment, mine, done, labels, ctx)
     lines += _positions(name, done, labels, ctx)
     steps = ctx.tables["steps"]
-    tracks = {labels[c]: ctx.steps_of(c) for c in done} if "x_m" in steps else {}
+    tracks = {labels[c]: _first_runs(ctx.steps_of(c), TRACKS_PER_CONDITION) for c in done} if "x_m" in steps else {}
     if any(table.x_m.notna().any() for table in tracks.values()):
         path = plots.trajectory_figure(tracks, ctx.figures / f"{name}-trajectories.png",
-                                       title=f"{name}: trajectories of the runs")
+                                       title=f"{name}: trajectories of the first {TRACKS_PER_CONDITION} runs of "
+                                             "each condition")
         lines += [f"![trajectories](figures/{path.name})", ""]
     return lines
 

@@ -25,7 +25,7 @@ from morphbench.experiment.run import RunConfig
 from morphbench.errors import ConfigError
 
 
-BATCH_SEEDS = 16
+BATCH_SEEDS = 28
 """seeds of a condition run together at most: enough to share the simulator's calls, few enough that the workers'
 loads stay even."""
 
