@@ -3,7 +3,8 @@ and on the quasi-static model), condition by condition: what each backend gives 
 
 ``compare(a, b)`` reads both directories' ``metrics.parquet`` (written by ``morphbench report``) and pairs the
 conditions that are equal in every condition column but ``physics`` (and the ids that hash it). Per pair and per
-compared metric (final Ubar, U_eq, steps to 0.8 U_eq, mean acceptance) it gives both values and the difference b - a.
+compared metric (final Ubar, U_eq where the fit has a plateau, steps to 0.8 U_eq, mean acceptance) it gives both
+values and the difference b - a.
 Final Ubar has a standard error over seeds in each directory; the pair **disagrees** when the difference exceeds
 ``DISAGREE_SE`` combined standard errors, sqrt(std_a^2 / n_a + std_b^2 / n_b), so a difference that seed noise explains
 is not called one. ``morphbench report DIR --compare A B`` keeps the table as ``DIR/backends.parquet``, and the
@@ -36,6 +37,9 @@ _LABEL_COLUMNS = ("experiments", "shape", "learner", "step_size", "noise", "envi
 def compare(a: str | Path, b: str | Path) -> pd.DataFrame:
     """One row per condition found in both results directories (see the module doc)."""
     (ma, ra), (mb, _) = _read(a), _read(b)
+    for table in (ma, mb):  # a U_eq without a plateau is an extrapolation, as in the report's own tables
+        if "plateau" in table:
+            table.loc[~table.plateau.astype(bool), "u_eq"] = math.nan
     keys = [c for c in M.condition_columns(ra) if c in mb.columns and c not in _NOT_CONDITION]
     ma = ma.assign(experiments=ma.condition_id.map(_experiments(ra)))
     pairs = ma.merge(mb, on=keys, suffixes=("_a", "_b"))
