@@ -389,5 +389,5 @@ def _try_pattern(a, m, order, limits, offsets, k, cap, sigma, capped, d, work):
 
 PATTERN_TRIES = 4
 """guesses a tick may try before the dynamic programme settles it."""
-PATTERN_MIN_BODIES = 6
+PATTERN_MIN_BODIES = 8
 """pieces with fewer bodies go straight to the programme, which is cheaper for them than a guess."""
