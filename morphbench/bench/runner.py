@@ -105,7 +105,9 @@ def batched(jobs: list[Job], size: int = BATCH_SEEDS) -> list[Job]:
     out: list[Job] = []
     for job in jobs:
         condition = dataclasses.replace(job.payload, seed=0) if job.kind == "run" else None
-        if condition is not None and can.setdefault(condition, batchable(condition)):
+        if condition is not None and condition not in can:
+            can[condition] = batchable(condition)  # builds a world: once per condition, not per run
+        if condition is not None and can[condition]:
             groups.setdefault(condition, []).append(job)
         else:
             out.append(job)
