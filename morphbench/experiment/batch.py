@@ -57,22 +57,24 @@ def run_batch(configs: list[RunConfig]) -> list[RunRecords | BaseException]:
     outcome: list[RunRecords | BaseException | None] = [None] * len(configs)
     n = first.shape.n_units
 
-    def each(action) -> None:
+    def each(action) -> dict:
+        """``action(index, loop)`` for every run still going, by index; a run whose action raises stops there."""
+        done = {}
         for index, loop in enumerate(loops):
             if outcome[index] is None:
                 try:
-                    action(index, loop)
+                    done[index] = action(index, loop)
                 except (Exception, SystemExit) as exc:  # the run's failure, as run() would raise it
                     outcome[index] = exc
+        return done
 
     each(lambda index, loop: loop.world.set_phases(loop.kept))
     world.advance(loops[0].warmup_ticks)
     for step in range(first.steps + 1):
-        applied, tried, measurements = {}, {}, {}
-        each(lambda index, loop: applied.__setitem__(index, loop.apply_events(step)))
-        each(lambda index, loop: tried.__setitem__(index, loop.propose(step)))
+        applied = each(lambda index, loop: loop.apply_events(step))
+        tried = each(lambda index, loop: loop.propose(step))
         world.advance(loops[0].discard_ticks)
-        each(lambda index, loop: measurements.__setitem__(index, loop.start_measurement()))
+        measurements = each(lambda index, loop: loop.start_measurement())
         every = next(iter(measurements.values())).every if measurements else 1
         positions, orientations = world.advance_sampled(loops[0].measured_ticks, every)
 
