@@ -183,7 +183,6 @@ class OpticalSensor(Sensor):
         self._noise_bank = bank * np.float32(255 * params.noise)
         # Poses and noise frame indices of the frames not rendered yet, oldest first.
         self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
-        self._pending_views = 0
         self._frame: np.ndarray | None = None  # newest rendered frame of every unit, stacked, or None before any
         self._on_ground = np.zeros(n_units, dtype=bool)  # whether each unit's sensor was on the ground in it
         self._columns_moved = np.zeros(n_units)  # px, summed image shift along the forward axis, sign of the unit
@@ -191,7 +190,6 @@ class OpticalSensor(Sensor):
 
     def reset(self, positions: np.ndarray, orientations: np.ndarray) -> None:
         self._pending.clear()
-        self._pending_views = 0
         self._frame = None
         self._columns_moved = np.zeros(self.n_units)
         self._lost = np.zeros(self.n_units, dtype=int)
@@ -206,9 +204,9 @@ class OpticalSensor(Sensor):
         positions, orientations = np.array(positions, dtype=float), np.array(orientations, dtype=float)  # held
         first = 0
         while first < len(positions):  # in batches of BATCH_VIEWS views, as many as fill the pending batch
-            last = first + max(1, -(-(BATCH_VIEWS - self._pending_views) // self.n_units))
+            last = first + max(1, -(-(BATCH_VIEWS - self._pending_count()) // self.n_units))
             self._record(positions[first:last], orientations[first:last])
-            if self._pending_views >= BATCH_VIEWS:
+            if self._pending_count() >= BATCH_VIEWS:
                 self._integrate()
             first = last
 
@@ -275,7 +273,10 @@ class OpticalSensor(Sensor):
         noise_frames = np.concatenate([self._rng.integers(NOISE_BANK_FRAMES, size=n) for _ in range(k)]) \
             if self.params.noise else None
         self._pending.append((positions.reshape(k * n, 3), orientations.reshape(k * n, 4), noise_frames))
-        self._pending_views += k * n
+
+    def _pending_count(self) -> int:
+        """Unit-frames held, not rendered yet."""
+        return sum(len(positions) for positions, _, _ in self._pending)
 
     def _integrate(self) -> None:
         """Render the pending frames and add their motion, all units and frames in one batch."""
@@ -283,7 +284,6 @@ class OpticalSensor(Sensor):
             return
         positions, orientations, noise_frames = zip(*self._pending)
         self._pending.clear()
-        self._pending_views = 0
         noise = None if self.params.noise == 0 else np.concatenate(noise_frames)
         frames, on_ground = self.frames(np.concatenate(positions), np.concatenate(orientations), noise)
         if self._frame is not None:  # the newest frame of the previous batch is this batch's first reference
