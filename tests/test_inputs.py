@@ -1,0 +1,113 @@
+"""Input the interfaces must refuse or survive (issue 21, items 8-12): environment actions and a PhysicsError in an
+episode, unbounded scans and suites, missing optional packages, replays of tampered runs, and smaller checks."""
+
+import datetime
+
+import numpy as np
+import pytest
+
+from morphbench.envs import CentralEnv, ParallelEnv
+from morphbench.errors import ActionError, EpisodeOver, PhysicsError
+from morphbench.experiment.run import RunLoop
+
+from conftest import SHAPES_DIR
+
+BAD_ACTIONS = [True, np.bool_(False), "0.3", b"0.3", 2 ** 1000, -1e7, datetime.datetime(2020, 1, 1), {"phase": 0.3},
+               0.3 + 0j, None, float("nan"), float("inf"), [0.1, 0.2], [], np.array([0.1, 0.2]),
+               np.array([True]), np.array(["0.3"]), np.array(0.3 + 1j), [[0.3]], object()]
+GOOD_ACTIONS = [(0.3, 0.3), (1, 0.0), (np.float32(0.25), 0.25), (np.int64(2), 0.0), (np.array(0.5), 0.5),
+                (np.array([0.75], dtype=np.float32), 0.75), ([1.25], 0.25), ((-0.1,), 0.9), (-1e6, 0.0)]
+
+
+@pytest.fixture(scope="module")
+def env():
+    env = ParallelEnv(SHAPES_DIR / "chain-3.toml", steps=50, physics="quasistatic")
+    yield env
+    env.close()
+
+
+@pytest.mark.parametrize("action", BAD_ACTIONS, ids=repr)
+def test_every_action_that_is_not_one_finite_real_phase_is_refused_naming_the_agent_and_the_space(env, action):
+    env.reset(seed=0)
+    with pytest.raises(ActionError) as info:
+        env.step({"unit_1": 0.1, "unit_2": action, "unit_3": 0.2})
+    message = str(info.value)
+    assert message.startswith("morphbench.envs: unit_2: expected one finite phase in cycles for Box(0, 1, (1,))")
+    assert "\n" not in message and isinstance(info.value, ValueError)
+    assert env.learning_step == 0 and env.records.n_steps == 1  # nothing ran
+
+
+@pytest.mark.parametrize("action, phase", GOOD_ACTIONS, ids=repr)
+def test_finite_real_phases_are_taken_and_wrapped(env, action, phase):
+    env.reset(seed=0)
+    env.step({"unit_1": 0.1, "unit_2": action, "unit_3": 0.2})
+    assert env.phases()[1] == pytest.approx(phase, abs=1e-7)
+
+
+def test_actions_for_unknown_or_dead_agents_and_missing_ones_are_refused(env):
+    env.reset(seed=0)
+    with pytest.raises(ActionError, match=r"unit_9: expected actions for living agents only \(not an agent of this "
+                                          r"environment \(unit_1 to unit_3\)\)"):
+        env.step({"unit_1": 0.1, "unit_2": 0.1, "unit_3": 0.2, "unit_9": 0.5})
+    with pytest.raises(ActionError, match="unit_3: expected an action from every living agent .*no action for unit_3"):
+        env.step({"unit_1": 0.1, "unit_2": 0.1})
+    with pytest.raises(ActionError, match="actions: expected a dict"):
+        env.step([0.1, 0.2, 0.3])
+    env.agents.remove("unit_2")  # as after its death
+    with pytest.raises(ActionError, match="unit_2: expected actions for living agents only .an agent no longer alive"):
+        env.step({"unit_1": 0.1, "unit_2": 0.1, "unit_3": 0.2})
+
+
+@pytest.mark.parametrize("action", [np.array(["a", "b", "c"]), np.array([1 + 0j, 0, 0]), np.array([True] * 3),
+                                    {"unit_1": 0.5}, None, [0.1, [0.2], 0.3], np.zeros(2)], ids=repr)
+def test_the_central_env_refuses_what_is_not_n_real_phases(action):
+    env = CentralEnv(SHAPES_DIR / "chain-3.toml", steps=2, physics="quasistatic")
+    env.reset(seed=0)
+    with pytest.raises(ActionError, match=r"morphbench.envs: action: expected 3 phases for Box\(0, 1, \(3,\)\)"):
+        env.step(action)
+    with pytest.raises(ActionError, match="unit_2: expected one finite phase"):
+        env.step(np.array([0.1, np.inf, 0.2]))
+    env.close()
+
+
+def break_at(monkeypatch, step):
+    original = RunLoop.check_physics
+
+    def check(self, at):
+        if at == step:
+            raise PhysicsError("test", at, "unit 2", "tipped over")
+        original(self, at)
+
+    monkeypatch.setattr(RunLoop, "check_physics", check)
+
+
+def test_a_physics_error_ends_the_parallel_episode(monkeypatch):
+    env = ParallelEnv(SHAPES_DIR / "chain-3.toml", steps=5, physics="quasistatic")
+    break_at(monkeypatch, 2)
+    env.reset(seed=0)
+    env.step(dict.fromkeys(env.agents, 0.3))
+    observations, rewards, terminations, truncations, infos = env.step(dict.fromkeys(env.agents, 0.3))
+    agents = ["unit_1", "unit_2", "unit_3"]
+    assert terminations == dict.fromkeys(agents, True) and truncations == dict.fromkeys(agents, False)
+    assert rewards == dict.fromkeys(agents, 0.0) and all(o.tolist() == [0.0] for o in observations.values())
+    assert infos["unit_1"]["error"] == "test: physics left the model's validity at learning step 2: unit 2 tipped over"
+    assert env.agents == [] and isinstance(env.error, PhysicsError)
+    assert env.records.units().step.max() == 1  # the records end at the last valid step
+    with pytest.raises(EpisodeOver, match="the episode is over .a PhysicsError at learning step 2: .*call reset"):
+        env.step(dict.fromkeys(agents, 0.3))
+    monkeypatch.undo()
+    env.reset(seed=0)  # a new episode goes on as usual
+    assert env.agents == agents and env.error is None
+    env.step(dict.fromkeys(agents, 0.3))
+    env.close()
+
+
+def test_a_physics_error_terminates_the_central_episode(monkeypatch):
+    env = CentralEnv(SHAPES_DIR / "chain-3.toml", steps=5, physics="quasistatic")
+    break_at(monkeypatch, 1)
+    env.reset(seed=0)
+    _, reward, terminated, truncated, info = env.step(np.full(3, 0.3))
+    assert (reward, terminated, truncated) == (0.0, True, False) and "unit 2 tipped over" in info["error"]
+    with pytest.raises(EpisodeOver):
+        env.step(np.full(3, 0.3))
+    env.close()
