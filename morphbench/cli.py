@@ -261,12 +261,15 @@ def _cmd_scan(args) -> int:
 
     from morphbench import plots
     from morphbench.experiment import scan, scan_phases
-    from morphbench.experiment.scan import DEFAULT_CYCLES
+    from morphbench.experiment.scan import DEFAULT_CYCLES, check_scan_size
     from morphbench.shapes import load_shape
 
     shape = load_shape(resolve_shape_path(args.shape))
     if shape.n_units < 2:
         raise ConfigError(args.shape, "assembly.units", "at least 2 active units to scan phase differences", 1)
+    sampled = shape.n_units > 3 and args.samples
+    check_scan_size(shape.n_units, args.resolution, args.samples, "--samples" if sampled else "--resolution",
+                    f"{shape.name} ({shape.n_units} units)")
     out = _output_dir(args.out or f"runs/scan-{shape.name}", "scan.csv", args.overwrite)
     n_points = len(scan_phases(shape.n_units, args.resolution, args.samples))
     with tqdm(total=n_points, desc=f"scan {shape.name}", unit="point", disable=args.quiet) as bar:
