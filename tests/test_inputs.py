@@ -2,6 +2,10 @@
 episode, unbounded scans and suites, missing optional packages, replays of tampered runs, and smaller checks."""
 
 import datetime
+import importlib
+import re
+import sys
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +19,7 @@ from morphbench.errors import ActionError, ConfigError, EpisodeOver, PhysicsErro
 from morphbench.experiment.scan import scan_phases, scan_size
 from morphbench.experiment.run import RunLoop
 
-from conftest import SHAPES_DIR, run_cli
+from conftest import ROOT, SHAPES_DIR, run_cli
 
 BAD_ACTIONS = [True, np.bool_(False), "0.3", b"0.3", 2 ** 1000, -1e7, datetime.datetime(2020, 1, 1), {"phase": 0.3},
                0.3 + 0j, None, float("nan"), float("inf"), [0.1, 0.2], [], np.array([0.1, 0.2]),
@@ -186,3 +190,37 @@ def test_suite_expansion_compares_each_run_id_a_bounded_number_of_times(tmp_path
     assert len(suite.runs) == len(suite.experiments[0].run_ids) == 2000
     assert [suite.runs[r].seed for r in suite.experiments[0].run_ids] == list(range(2000))
     assert CountedId.comparisons < 3 * 2000  # a list scan: about 2000^2 / 2
+
+
+# --- 10: dependencies -------------------------------------------------------------------------------------------
+
+
+def test_cma_is_a_core_dependency_and_the_extras_hold_only_what_is_optional():
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    names = [re.match(r"[A-Za-z0-9_.-]+", d).group() for d in project["dependencies"]]
+    assert "cma" in names
+    assert not any(d.startswith("cma") for extra in project["optional-dependencies"].values() for d in extra)
+
+
+@pytest.mark.parametrize("missing", ["pettingzoo", "gymnasium"])
+def test_without_the_rl_extra_the_environments_say_what_to_install_in_one_line(monkeypatch, missing):
+    for name in [m for m in sys.modules if m.startswith("morphbench.envs.")]:
+        monkeypatch.delitem(sys.modules, name)
+    for name in [m for m in sys.modules if m == missing or m.startswith(f"{missing}.")] + [missing]:
+        monkeypatch.setitem(sys.modules, name, None)  # an import of it fails as if it were not installed
+    for module in ("morphbench.envs.parallel", "morphbench.envs.central"):
+        with pytest.raises(ImportError) as info:
+            importlib.import_module(module)
+        message = str(info.value)
+        assert message.startswith("morphbench.envs needs the rl extra: pip install 'morphbench[rl]' (")
+        assert "\n" not in message and info.value.name.split(".")[0] == missing
+
+
+def test_without_dask_a_scheduler_is_refused_in_one_line_naming_the_extra(monkeypatch, tmp_path, capsys):
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)
+    monkeypatch.setitem(sys.modules, "dask", None)
+    status, _, err = run_cli(capsys, "bench", str(suite_file(tmp_path, "seeds = 1")), "--out", str(tmp_path / "r"),
+                             "--scheduler", "tcp://127.0.0.1:1", "--quiet", "--no-report")
+    assert status == 2 and len(err.strip().splitlines()) == 1
+    assert err.startswith("morphbench: error: --scheduler: dask: expected the optional dependency dask[distributed] "
+                          "installed: pip install 'morphbench[dask]'")

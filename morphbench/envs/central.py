@@ -13,11 +13,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import gymnasium
 import numpy as np
-from gymnasium.spaces import Box
 
-from morphbench.envs.parallel import MAX_ACTION, SOURCE, ParallelEnv
+from morphbench.envs.parallel import MAX_ACTION, SOURCE, ParallelEnv  # first: it says how to install gymnasium
+import gymnasium
+from gymnasium.spaces import Box
 from morphbench.errors import ActionError
 from morphbench.experiment.run import RunConfig
 from morphbench.params import PhysicsParams

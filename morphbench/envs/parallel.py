@@ -28,8 +28,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from gymnasium.spaces import Box
-from pettingzoo import ParallelEnv as PettingZooParallelEnv
+
+try:
+    from gymnasium.spaces import Box
+    from pettingzoo import ParallelEnv as PettingZooParallelEnv
+except ImportError as exc:  # one line that says what to install, not a traceback ending in a module name
+    raise ImportError(f"morphbench.envs needs the rl extra: pip install 'morphbench[rl]' ({exc})", name=exc.name) \
+        from None
 
 from morphbench.errors import ActionError, EpisodeOver, PhysicsError
 from morphbench.experiment.config import load_run_config
