@@ -3,12 +3,15 @@ episode, unbounded scans and suites, missing optional packages, replays of tampe
 
 import datetime
 import importlib
+import json
 import re
+import shutil
 import sys
 import tomllib
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import morphbench.bench.suite as suite_module
@@ -16,7 +19,10 @@ from morphbench import params as P
 from morphbench.bench.suite import load_suite
 from morphbench.envs import CentralEnv, ParallelEnv
 from morphbench.errors import ActionError, ConfigError, EpisodeOver, PhysicsError
+from morphbench.experiment import RunConfig, run
 from morphbench.experiment.scan import scan_phases, scan_size
+from morphbench.params import SensorParams
+from morphbench.shapes import load_shape
 from morphbench.experiment.run import RunLoop
 
 from conftest import ROOT, SHAPES_DIR, run_cli
@@ -224,3 +230,85 @@ def test_without_dask_a_scheduler_is_refused_in_one_line_naming_the_extra(monkey
     assert status == 2 and len(err.strip().splitlines()) == 1
     assert err.startswith("morphbench: error: --scheduler: dask: expected the optional dependency dask[distributed] "
                           "installed: pip install 'morphbench[dask]'")
+
+
+# --- 11: render replays only what run would accept ----------------------------------------------------------------
+
+SMALL_VIDEO = ["--video-width", "32", "--video-height", "32", "--video-fps", "2", "--quiet"]
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory):
+    """A 1-step run of a shape file of its own (tests swap its content)."""
+    root = tmp_path_factory.mktemp("finished")
+    shape = root / "robot.toml"
+    shape.write_text('[assembly]\ngenerator = "chain"\nunits = 2\n')
+    records = run(RunConfig(shape=load_shape(shape), steps=1, sensor=SensorParams(kind="ideal")))
+    records.write(root / "run")
+    return root / "run"
+
+
+def tampered(finished_run, tmp_path, config=None, steps=None) -> Path:
+    copy = tmp_path / "run"
+    shutil.copytree(finished_run, copy)
+    summary = json.loads((copy / "summary.json").read_text())
+    if config is not None:
+        config(summary["config"])
+        (copy / "summary.json").write_text(json.dumps(summary))
+    if steps is not None:
+        table = pd.read_parquet(copy / "steps.parquet")
+        steps(table).to_parquet(copy / "steps.parquet", index=False)
+    return copy
+
+
+@pytest.mark.parametrize("change, line", [
+    (lambda c: c.update(physics="fast"), "config.physics: expected a table, got 'fast'"),
+    (lambda c: c.update(steps="1"), "config.steps: expected an integer in [0, 1000000], got '1'"),
+    (lambda c: c["physics"].update(timestep=-1), "config.physics.timestep: expected a number in [0.0001, 0.1] (s), "
+                                                 "got -1"),
+    (lambda c: c["learner_params"].update(step_size=[0.1]), "config.learner_params.step_size: expected a number"),
+    (lambda c: c["environment"].update(colour=1), "config.environment.colour: expected one of the known keys"),
+    (lambda c: c.update(events=[{"step": 9, "kind": "noise", "sigma": 1.0}]),
+     "config.events[0].step: expected a learning step <= the run's steps (1)"),
+    (lambda c: c.pop("seed"), "config.seed: expected a run configuration written by morphbench (it is missing)"),
+    (lambda c: c["shape"].update(source=str(SHAPES_DIR / "chain-3.toml")),
+     "config.shape.name: expected the shape the run had"),
+    (lambda c: c["shape"].update(id="0123456789ab"), "config.shape.id: expected the shape the run had"),
+], ids=["physics-string", "steps-string", "timestep", "step-size", "unknown-key", "late-event", "no-seed",
+        "other-shape", "other-id"])
+def test_render_refuses_a_stored_configuration_run_would_refuse(finished_run, tmp_path, capsys, change, line):
+    run_dir = tampered(finished_run, tmp_path, config=change)
+    status, _, err = run_cli(capsys, "render", str(run_dir), "--out", str(tmp_path / "v.gif"), *SMALL_VIDEO)
+    assert status == 2 and err.startswith(f"morphbench: error: {run_dir / 'summary.json'}: {line}"), err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "v.gif").exists()
+
+
+def test_render_refuses_a_shape_file_swapped_for_another_of_as_many_units(finished_run, tmp_path, capsys):
+    run_dir = tampered(finished_run, tmp_path)
+    shape = Path(json.loads((run_dir / "summary.json").read_text())["config"]["shape"]["source"])
+    original = shape.read_text()
+    try:
+        shape.write_text(original + '[unit]\nmesh = "capsule"\n')
+        status, _, err = run_cli(capsys, "render", str(run_dir), "--out", str(tmp_path / "v.gif"), *SMALL_VIDEO)
+    finally:
+        shape.write_text(original)
+    assert status == 2 and "config.shape.id: expected the shape the run had; its file" in err, err
+
+
+@pytest.mark.parametrize("change, line", [
+    (lambda t: t.astype({"step": str}), "step: expected a column of integers, got '"),
+    (lambda t: t.astype({"ubar": str}), "ubar: expected a column of floats, got '"),
+    (lambda t: t.drop(columns="ubar"), "columns: expected a steps table with 'ubar'"),
+    (lambda t: t[t.step != 1], "step: expected the learning steps 0 to 1 of the run, each once, got '1 rows from 0 "
+                               "to 0'"),
+    (lambda t: pd.concat([t, t]), "step: expected the learning steps 0 to 1 of the run, each once"),
+], ids=["step-strings", "ubar-strings", "no-ubar", "missing-step", "repeated-steps"])
+def test_render_refuses_records_without_their_schema(finished_run, tmp_path, capsys, change, line):
+    run_dir = tampered(finished_run, tmp_path, steps=change)
+    status, _, err = run_cli(capsys, "render", str(run_dir), "--out", str(tmp_path / "v.gif"), *SMALL_VIDEO)
+    assert status == 2 and err.startswith(f"morphbench: error: {run_dir / 'steps.parquet'}: {line}"), err
+
+
+def test_an_untouched_run_still_renders(finished_run, tmp_path, capsys):
+    status, out, err = run_cli(capsys, "render", str(finished_run), "--out", str(tmp_path / "v.gif"), *SMALL_VIDEO)
+    assert status == 0 and (tmp_path / "v.gif").stat().st_size > 0, err

@@ -109,6 +109,37 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path,
     return config
 
 
+STORED_KEYS = ("shape", "learner", "learner_params", "sensor", "environment", "physics", "events", "steps", "seed")
+"""the keys of a stored configuration (RunConfig.to_dict, summary.json's ``config``)."""
+
+
+def run_config_from_dict(data: Any, source: str, key: str = "config") -> RunConfig:
+    """A stored configuration (``RunConfig.to_dict``, summary.json's ``config``) read back through the loader of run
+    files, ``run_config_from_table``: a replayed run is checked by the rules of ``morphbench run``. A ConfigError
+    names ``source`` and the stored key (``config.physics.timestep``)."""
+    if not isinstance(data, dict):
+        raise ConfigError(source, key, "a run configuration written by morphbench (a table)", data)
+    for name in STORED_KEYS:
+        if name not in data:
+            raise ConfigError(source, f"{key}.{name}", "a run configuration written by morphbench (it is missing)")
+    for name in ("shape", "learner_params"):
+        if not isinstance(data[name], dict):
+            raise ConfigError(source, f"{key}.{name}", "a table", data[name])
+    shape = data["shape"].get("source")
+    if not isinstance(shape, str):
+        raise ConfigError(source, f"{key}.shape.source", "the path of the run's morphology file", shape)
+    table = {"shape": shape, "learner": {"name": data["learner"], **data["learner_params"]},
+             **{name: data[name] for name in ("sensor", "environment", "physics", "events", "steps", "seed")}}
+    try:
+        return run_config_from_table(table, source, base=Path("."))
+    except ConfigError as exc:
+        if exc.source != source:  # the morphology file's own error names it
+            raise
+        stored = ("learner" if exc.key == "learner.name" else "learner_params" + exc.key[len("learner"):]
+                  if exc.key.startswith("learner.") else exc.key)
+        raise ConfigError(source, f"{key}.{stored}", exc.expected, exc.got) from None
+
+
 def check_events_happen(config: RunConfig, source: str, steps_key: str | None = None) -> None:
     """ConfigError unless every event falls within the run's steps (a later one would silently never happen); it
     names the event's step, or ``steps_key`` when the steps were set elsewhere (``--steps``)."""
