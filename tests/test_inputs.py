@@ -1,6 +1,7 @@
 """Input the interfaces must refuse or survive (issue 21, items 8-12): environment actions and a PhysicsError in an
 episode, unbounded scans and suites, missing optional packages, replays of tampered runs, and smaller checks."""
 
+import dataclasses
 import datetime
 import importlib
 import json
@@ -18,11 +19,13 @@ import morphbench.bench.suite as suite_module
 from morphbench import params as P
 from morphbench.bench.suite import load_suite
 from morphbench.envs import CentralEnv, ParallelEnv
-from morphbench.errors import ActionError, ConfigError, EpisodeOver, PhysicsError
+from morphbench.errors import ActionError, ConfigError, EpisodeOver, PhysicsError, PluginError
 from morphbench.experiment import RunConfig, run
+from morphbench.experiment.config import load_run_config
 from morphbench.experiment.scan import scan_phases, scan_size
-from morphbench.params import SensorParams
-from morphbench.shapes import load_shape
+from morphbench.learning.plugins import update_accepted
+from morphbench.params import PHYSICS_PRESETS, SensorParams
+from morphbench.shapes import load_shape, shape_from_table
 from morphbench.experiment.run import RunLoop
 
 from conftest import ROOT, SHAPES_DIR, run_cli
@@ -312,3 +315,102 @@ def test_render_refuses_records_without_their_schema(finished_run, tmp_path, cap
 def test_an_untouched_run_still_renders(finished_run, tmp_path, capsys):
     status, out, err = run_cli(capsys, "render", str(finished_run), "--out", str(tmp_path / "v.gif"), *SMALL_VIDEO)
     assert status == 0 and (tmp_path / "v.gif").stat().st_size > 0, err
+
+
+# --- 12: smaller checks ------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("axes", [[""], ["xy"], ["x", "x"], [], "x", ["X"], [1]], ids=repr)
+def test_actuated_axes_are_exact_distinct_axis_names(axes):
+    table = {"assembly": {"generator": "grid", "rows": 2, "columns": 2, "actuated_axes": axes}}
+    with pytest.raises(ConfigError, match="assembly.actuated_axes: expected a non-empty list of distinct axes among "
+                                          "'x', 'y'"):
+        shape_from_table(table, source="grid.toml")
+    grid = shape_from_table({"assembly": {**table["assembly"], "actuated_axes": ["y", "x"]}}, source="grid.toml")
+    along_x = shape_from_table({"assembly": {**table["assembly"], "actuated_axes": ["x"]}}, source="grid.toml")
+    bellows = [sum(link.unit is not None for link in shape.links) for shape in (grid, along_x)]
+    assert bellows[0] > bellows[1] > 0
+
+
+class Returns:
+    """A learner whose update returns ``value``."""
+
+    def __init__(self, value):
+        self.value = value
+
+    def update(self, velocity):
+        return self.value
+
+
+@pytest.mark.parametrize("value", [float("nan"), None, 1, 0.0, "yes", np.array([True, False]), np.nan], ids=repr)
+def test_an_update_that_returns_anything_but_true_or_false_is_a_plugin_error(value):
+    with pytest.raises(PluginError) as info:
+        update_accepted(Returns(value), 1, 4, 0.5)
+    assert info.value.method == "update(velocity)"
+    assert "of unit 2 at learning step 4 to return whether it accepted the trial (True or False), got" in str(
+        info.value)
+
+
+@pytest.mark.parametrize("value", [True, False, np.True_, np.False_], ids=repr)
+def test_an_update_returning_a_bool_is_taken(value):
+    assert update_accepted(Returns(value), 0, 1, 0.5) is bool(value)
+
+
+def run_file(tmp_path, text: str) -> Path:
+    path = tmp_path / "my-run.toml"
+    path.write_text(f'shape = "{SHAPES_DIR / "chain-2.toml"}"\nsteps = 1\n{text}')
+    return path
+
+
+@pytest.mark.parametrize("file_physics, option, expected", [
+    ('preset = "quasistatic"\ntimestep = 0.004', "fast", dict(backend="pybullet", timestep=0.004)),
+    ('backend = "pybullet"\nsolver_iterations = 20', "quasistatic", dict(backend="quasistatic", timestep=1 / 200,
+                                                                        solver_iterations=20)),
+    ("", "reference", {}),
+])
+def test_run_physics_replaces_the_preset_and_keeps_the_files_other_physics_fields(tmp_path, file_physics, option,
+                                                                                   expected):
+    path = run_file(tmp_path, f"[physics]\n{file_physics}\n")
+    config = load_run_config(path, physics=option)
+    assert config.physics == dataclasses.replace(PHYSICS_PRESETS[option], **expected)
+    assert load_run_config(SHAPES_DIR / "chain-2.toml", physics=option).physics == PHYSICS_PRESETS[option]
+
+
+def test_the_cli_merges_physics_and_records_it(tmp_path, capsys):
+    path = run_file(tmp_path, '[physics]\npreset = "fast"\ntimestep = 0.004\n')
+    status, _, err = run_cli(capsys, "run", str(path), "--physics", "quasistatic", "--sensor", "ideal", "--out",
+                             str(tmp_path / "out"), "--quiet")
+    assert status == 0, err
+    physics = json.loads((tmp_path / "out" / "summary.json").read_text())["config"]["physics"]
+    assert physics["backend"] == "quasistatic" and physics["timestep"] == 0.004
+
+
+@pytest.mark.parametrize("command", [["run", str(SHAPES_DIR / "chain-2.toml"), "--steps", "1"],
+                                     ["scan", str(SHAPES_DIR / "chain-2.toml"), "--resolution", "2"]])
+def test_an_empty_out_is_refused_as_bench_refuses_it(tmp_path, capsys, monkeypatch, command):
+    monkeypatch.chdir(tmp_path)
+    status, _, err = run_cli(capsys, *command, "--out", "", "--quiet")
+    assert status == 2 and err == "morphbench: error: --out: '': expected a path, not an empty string\n"
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("text, key", [
+    ("[environment.friction_field]\ncorrelation_length = 0.001\nperiod = 100\n",
+     "environment.friction_field.correlation_length"),
+    ("[learner]\ncycles_per_step = 1000\n[physics]\ntimestep = 0.0001\n", "learner.cycles_per_step"),
+])
+def test_a_rule_across_a_run_files_fields_names_the_run_file(tmp_path, text, key):
+    path = run_file(tmp_path, text)
+    with pytest.raises(ConfigError) as info:
+        load_run_config(path)
+    assert (info.value.source, info.value.key) == (str(path), key)
+
+
+def test_a_rule_on_the_shapes_actuator_still_names_the_shape_file(tmp_path):
+    shape = tmp_path / "fast-pump.toml"
+    shape.write_text('[assembly]\ngenerator = "chain"\nunits = 2\n[actuator]\ncycle_time = 0.05\n')
+    path = tmp_path / "run.toml"
+    path.write_text(f'shape = "{shape}"\n[physics]\ntimestep = 0.01\n')
+    with pytest.raises(ConfigError) as info:
+        load_run_config(path)
+    assert (info.value.source, info.value.key) == (str(shape), "actuator.cycle_time")
