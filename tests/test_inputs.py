@@ -28,6 +28,8 @@ from morphbench.params import PHYSICS_PRESETS, SensorParams
 from morphbench.shapes import load_shape, shape_from_table
 from morphbench.experiment.run import RunLoop
 
+import fuzz_interfaces
+import fuzzing
 from conftest import ROOT, SHAPES_DIR, run_cli
 
 BAD_ACTIONS = [True, np.bool_(False), "0.3", b"0.3", 2 ** 1000, -1e7, datetime.datetime(2020, 1, 1), {"phase": 0.3},
@@ -414,3 +416,36 @@ def test_a_rule_on_the_shapes_actuator_still_names_the_shape_file(tmp_path):
     with pytest.raises(ConfigError) as info:
         load_run_config(path)
     assert (info.value.source, info.value.key) == (str(shape), "actuator.cycle_time")
+
+
+# --- the case generator of the robustness benchmark (tests/fuzz_interfaces.py) -----------------------------------
+
+
+def test_interface_cases_are_reproducible_and_cover_every_kind():
+    first, again = fuzz_interfaces.random_cases(30, 3), fuzz_interfaces.random_cases(30, 3)
+    assert [(c.kind, c.description) for c in first] == [(c.kind, c.description) for c in again]
+    assert {c.kind for c in first} == set(fuzz_interfaces.KINDS)
+    assert all(isinstance(c, fuzzing.Case) for c in first)
+
+
+def test_every_environment_case_is_refused_or_accepted_as_expected():
+    cases = [c for c in fuzz_interfaces.random_cases(150, 0, kinds=("env",))]
+    verdicts = {}
+    for case in cases:
+        outcome = fuzz_interfaces.run_case(case, Path("unused"))
+        verdicts.setdefault(outcome.verdict, []).append(case.short())
+    assert set(verdicts) == {"accepted", "refused"}, {k: v[:3] for k, v in verdicts.items()}
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_oversized_plans_are_refused(tmp_path, seed):
+    for k, case in enumerate(fuzz_interfaces.random_cases(4, seed, kinds=("plan",))):
+        outcome = fuzz_interfaces.run_case(case, tmp_path / str(k), timeout_s=60)
+        assert outcome.verdict == "refused", (case.short(), outcome.verdict, outcome.err, outcome.exception)
+
+
+def test_tampered_runs_are_refused_or_replayed_cleanly(tmp_path):
+    for k, case in enumerate(fuzz_interfaces.random_cases(6, 1, kinds=("render",))):
+        outcome = fuzz_interfaces.run_case(case, tmp_path / str(k), timeout_s=60)
+        assert outcome.verdict in ("refused", "accepted"), (case.short(), outcome.verdict, outcome.err,
+                                                            outcome.exception)
