@@ -179,8 +179,7 @@ def _output_dir(out: str, marker: str, overwrite: bool) -> Path:
 def _with_options(config, args):
     """The configuration with the command-line options that were given."""
     learner = {"temperature": args.temperature, "step_size": args.step_size, "cycles_per_step": args.cycles_per_step}
-    top = {"learner": args.learner, "steps": args.steps, "seed": args.seed,
-           "physics": PHYSICS_PRESETS[args.physics] if args.physics else None}
+    top = {"learner": args.learner, "steps": args.steps, "seed": args.seed}  # --physics: load_run_config merges it
     return replace(
         config,
         **{key: value for key, value in top.items() if value is not None},
@@ -199,13 +198,14 @@ def _cmd_run(args) -> int:
     from morphbench.learning import load_learner_class
     from morphbench.render import VideoRecorder
 
-    config = _with_options(load_run_config(resolve_shape_path(args.config)), args)
+    config = _with_options(load_run_config(resolve_shape_path(args.config), physics=args.physics), args)
     if args.steps is not None:
         check_events_happen(config, "--steps", str(args.steps))
     load_learner_class(config.learner)  # fail on a bad plug-in before simulating
     name = Path(args.config).stem
     learner_name = config.learner.rsplit(":", 1)[-1].lower()
-    out = _run_dir(args.out or f"runs/{name}-{learner_name}-seed{config.seed}", args.overwrite)
+    # --out '' is refused (as bench refuses it), not taken for the default
+    out = _run_dir(f"runs/{name}-{learner_name}-seed{config.seed}" if args.out is None else args.out, args.overwrite)
     video = (VideoRecorder(None, check_path(args.video, "--video", room=TEMPORARY_NAME_ROOM),
                            video_params_from_args(args, config.steps))
              if args.video else nullcontext())
@@ -261,13 +261,16 @@ def _cmd_scan(args) -> int:
 
     from morphbench import plots
     from morphbench.experiment import scan, scan_phases
-    from morphbench.experiment.scan import DEFAULT_CYCLES
+    from morphbench.experiment.scan import DEFAULT_CYCLES, check_scan_size
     from morphbench.shapes import load_shape
 
     shape = load_shape(resolve_shape_path(args.shape))
     if shape.n_units < 2:
         raise ConfigError(args.shape, "assembly.units", "at least 2 active units to scan phase differences", 1)
-    out = _output_dir(args.out or f"runs/scan-{shape.name}", "scan.csv", args.overwrite)
+    sampled = shape.n_units > 3 and args.samples
+    check_scan_size(shape.n_units, args.resolution, args.samples, "--samples" if sampled else "--resolution",
+                    f"{shape.name} ({shape.n_units} units)")
+    out = _output_dir(f"runs/scan-{shape.name}" if args.out is None else args.out, "scan.csv", args.overwrite)
     n_points = len(scan_phases(shape.n_units, args.resolution, args.samples))
     with tqdm(total=n_points, desc=f"scan {shape.name}", unit="point", disable=args.quiet) as bar:
         table = scan(shape, args.resolution, physics=PHYSICS_PRESETS[args.physics],

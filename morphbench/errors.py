@@ -43,3 +43,21 @@ class PhysicsError(Exception):
     def __init__(self, source: str, step: int, body: str, what: str):
         self.source, self.step, self.body, self.what = source, step, body, what
         super().__init__(f"{source}: physics left the model's validity at learning step {step}: {body} {what}")
+
+
+class ActionError(ValueError):
+    """An environment action that is not what the action space takes (morphbench.envs): named by its agent (or
+    ``action`` of the central environment) and the space expected, on one line."""
+
+    def __init__(self, source: str, agent: str, expected: str, got: object = ...):
+        self.agent, self.expected, self.got = agent, expected, got
+        message = f"{source}: {agent}: expected {expected}"
+        if got is not ...:
+            shown = " ".join(repr(got).split())  # an action may be anything: one short line
+            message += f", got {shown if len(shown) <= 80 else shown[:77] + '...'}"
+        super().__init__(message)
+
+
+class EpisodeOver(RuntimeError):
+    """``step()`` of an environment whose episode has ended (its last step, no agent left alive, or a PhysicsError):
+    says which, and that ``reset()`` starts the next one."""

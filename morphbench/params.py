@@ -178,6 +178,30 @@ computed at once (8 bytes per tick and bellows per array), so 2 million ticks is
 MAX_FIELD_WAVES = 1000
 """friction field period / correlation_length at most: the field holds one wave per ratio unit and evaluates them
 on 2048 points to normalise (1000 waves are 16 MB)."""
+MAX_SCAN_POINTS = 100_000
+"""points of one scan at most (a 3-unit grid of resolution 316, or 100,000 samples): each point is a fresh world run
+for its cycles (3 ms for chain-5 on the quasi-static model, a second on PyBullet: up to a day on one core); the plan
+alone holds about SCAN_POINT_BYTES per point (`scan chain-3 --resolution 10000` asked for 10^8 points, 30 GB, and
+ended in a MemoryError)."""
+SCAN_POINT_BYTES = 300
+"""bytes a scan's plan holds per point (its phases and job; measured with tracemalloc on chain-3)."""
+MAX_SUITE_RUNS = 100_000
+"""runs of one suite at most (22 times the paper suite's 4,480), counted before any is built: each is a run
+directory and a row of every table, and the plan alone holds about SUITE_RUN_BYTES per run."""
+SUITE_RUN_BYTES = 600
+"""bytes a suite's plan holds per run (its spec, configuration and job; measured with tracemalloc on chain-2)."""
+
+
+def check_plan_size(count: int, limit: int, bytes_each: int, what: str, source: str, key: str, got: object) -> int:
+    """``count`` if at most ``limit``, else ConfigError naming ``source`` and ``key``, with the memory the plan of
+    ``count`` would take, before anything is built."""
+    if count > limit:
+        size = float(min(count, 10 ** 30) * bytes_each)  # a product of axes may be past float range
+        units = ((1e12, "TB"), (1e9, "GB"), (1e6, "MB"), (1e3, "kB"), (1, "B"))
+        shown = next(f"{size / scale:.3g} {unit}" for scale, unit in units if size >= scale or unit == "B")
+        raise ConfigError(source, key, f"at most {limit:,} {what} (this asks for {count:,}, about {shown} of memory "
+                                       "before anything runs)", got)
+    return count
 
 
 def param(default: Any, rule: Rule, unit: str = "") -> Any:

@@ -16,8 +16,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from morphbench.bench.identity import shape_id
 from morphbench.cli import EXIT_BAD_INPUT
 from morphbench.params import LearnerParams
+from morphbench.shapes import load_shape
 
 from conftest import SHAPES_DIR as SHAPES, run_cli
 
@@ -88,7 +90,8 @@ def test_run_writes_records_summary_and_curve(tmp_path: Path, capsys):
     assert summary["wall_time_s"] > 0
     config = summary["config"]
     assert config["seed"] == 5 and config["steps"] == 3 and config["learner"] == "thermal"
-    assert config["shape"] == {"name": "chain-2", "source": CHAIN2, "n_units": 2}
+    assert config["shape"] == {"name": "chain-2", "source": CHAIN2, "n_units": 2,
+                               "id": shape_id(load_shape(CHAIN2))}  # render checks the file still holds it
     assert config["learner_params"] == dataclasses.asdict(LearnerParams())  # the defaults
     assert (out / "learning_curve.png").read_bytes().startswith(b"\x89PNG")
 

@@ -180,9 +180,9 @@ def test_bad_construction_and_actions_are_refused():
     env.reset()
     with pytest.raises(ValueError, match="no action for unit_3"):
         env.step({"unit_1": [0.1], "unit_2": [0.2]})
-    with pytest.raises(ValueError, match="unit_1's action must be one finite phase"):
+    with pytest.raises(ValueError, match="unit_1: expected one finite phase"):
         env.step({"unit_1": [np.nan], "unit_2": [0.2], "unit_3": [0.3]})
-    with pytest.raises(ValueError, match="must be 3 phases"):
+    with pytest.raises(ValueError, match="expected 3 phases"):
         CentralEnv(SHAPES_DIR / "chain-3.toml", steps=2).step(np.zeros(2))
     env.step({"unit_1": [1.25], "unit_2": [0.2], "unit_3": [-0.1]})
     assert env.phases() == pytest.approx([0.25, 0.2, 0.9])

@@ -101,7 +101,7 @@ from morphbench.errors import ConfigError
 from morphbench.experiment.config import RUN_KEYS, run_config_from_table
 from morphbench.experiment.events import DamageEvent, Event, parse_event
 from morphbench.experiment.run import RunConfig
-from morphbench.experiment.scan import DEFAULT_CYCLES, DEFAULT_DISCARD, scan_phases
+from morphbench.experiment.scan import DEFAULT_CYCLES, DEFAULT_DISCARD, check_scan_size, scan_phases
 from morphbench.files import is_file, read_toml_with_text
 from morphbench.shapes import Shape, load_shape, params_from_table
 
@@ -383,6 +383,7 @@ def _translate(table: dict, src: str, prefix: str) -> tuple[dict, dict[str, str]
     if isinstance(seeds, int) and not isinstance(seeds, bool):  # a number of seeds: 0..n-1
         if seeds < 1:
             raise ConfigError(src, f"{prefix}seeds", "a number of seeds >= 1 (seeds 0..n-1) or a list of seeds", seeds)
+        P.check_plan_size(seeds, P.MAX_SUITE_RUNS, P.SUITE_RUN_BYTES, "runs in a suite", src, f"{prefix}seeds", seeds)
         table["seeds"] = list(range(seeds))
     move("seeds", "seed")
     learner_params = table.pop("learner_params", {})
@@ -435,14 +436,20 @@ def _expand_experiment(table: dict, names: dict[str, str], name: str, descriptio
     where = f"experiment[{name}]"
     table = dict(table)
     events = table.pop("events")
+    axes = {k: table[k] for k in AXIS_ORDER if k in table}
     try:
         seeds = [P.check_rule(P.SEED, "", s, src, "seed") for s in _values(table.pop("seed", 0), src, "seed")]
-        combinations = _alternatives({k: table[k] for k in AXIS_ORDER if k in table}, src, "", "")
+        # counted before anything is expanded: a product of a few long lists is more runs than memory holds
+        P.check_plan_size(len(runs) + _count(axes) * len(seeds), P.MAX_SUITE_RUNS, P.SUITE_RUN_BYTES,
+                          "runs in a suite (its experiments' combinations times seeds)", src, "seed",
+                          len(seeds))
+        combinations = _alternatives(axes, src, "", "")
     except ConfigError as exc:
         raise _named(exc, where, names) from None
 
-    run_ids: list[str] = []
-    condition_ids: list[str] = []
+    # dicts as ordered sets: a membership test by list scan made expansion quadratic in the seeds
+    run_ids: dict[str, None] = {}
+    condition_ids: dict[str, None] = {}
     conditions: list[dict] = []
     grounds: dict[str, str] = {}  # environment label -> environment id
     labels: dict[str, str] = {}  # environment content -> label
@@ -487,13 +494,21 @@ def _expand_experiment(table: dict, names: dict[str, str], name: str, descriptio
             if run_id not in runs:
                 runs[run_id] = RunSpec(run_id, condition_id, condition, seed, dataclasses.replace(config, seed=seed),
                                        cost=cycles * body_cost(config.shape))
-            if run_id not in run_ids:
-                run_ids.append(run_id)
+            run_ids.setdefault(run_id)
         if condition_id not in condition_ids:
-            condition_ids.append(condition_id)
+            condition_ids[condition_id] = None
             conditions.append(condition)
     varying = tuple(k for k in conditions[0] if len({json.dumps(c[k]) for c in conditions}) > 1)
     return Experiment(name, description, tuple(run_ids), tuple(condition_ids), varying)
+
+
+def _count(value: Any) -> int:
+    """How many alternatives ``_alternatives`` would list for ``value``, without listing them."""
+    if isinstance(value, dict):
+        return math.prod(_count(v) for v in value.values())
+    if _is_tables(value):
+        return sum(_count(table) for table in value)
+    return len(value) if isinstance(value, list) else 1
 
 
 def events_summary(events: tuple[Event, ...]) -> str:
@@ -564,8 +579,10 @@ def _expand_scan(table: dict, index: int, ctx: _Context) -> ScanSpec:
         damage = parse_event(table["damage"], src, f"{where}.damage", shape.n_units, len(shape.links), kind="damage")
     default_name = f"{shape.name}-r{resolution}" + (f"-unit{damage.unit}-{damage.mode}" if damage else "")
     name = _name(table.get("name", default_name), src, f"{where}.name")
-    phases = scan_phases(shape.n_units, resolution, samples, seed)
     sampled = shape.n_units > 3
+    check_scan_size(shape.n_units, resolution, samples, src, f"{where}.samples" if sampled and samples else
+                    f"{where}.resolution")
+    phases = scan_phases(shape.n_units, resolution, samples, seed)
     identity = {"shape": shape_identity(shape), "resolution": resolution, "samples": samples if sampled else None,
                 "seed": seed if sampled else None, "cycles": cycles, "discard": discard,
                 "physics": dataclasses.asdict(P.PHYSICS_PRESETS[preset]), "part_points": SCAN_PART_POINTS,

@@ -4,7 +4,8 @@ The parallel environment (morphbench.envs.parallel) with all agents' actions, ob
 the action is every unit's trial phase (``Box(0, 1, (n,))``, unit order), the observation every unit's measured
 velocity (mm/cycle, 0 for a dead unit), the reward Ubar (the mean measured velocity of the living units, as in
 ``steps.parquet``). An episode ends truncated after the configuration's ``steps``, terminated when no unit is left
-alive. Construction, seeding and ``records`` are the parallel environment's.
+alive, or by a PhysicsError (reward 0, the error in ``info["error"]``). Construction, seeding, ``records`` and what
+an action may be are the parallel environment's: an action that is not n finite real phases is an ActionError.
 """
 
 from __future__ import annotations
@@ -12,11 +13,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import gymnasium
 import numpy as np
-from gymnasium.spaces import Box
 
-from morphbench.envs.parallel import ParallelEnv
+from morphbench.envs.parallel import MAX_ACTION, SOURCE, ParallelEnv  # first: it says how to install gymnasium
+import gymnasium
+from gymnasium.spaces import Box
+from morphbench.errors import ActionError
 from morphbench.experiment.run import RunConfig
 from morphbench.params import PhysicsParams
 
@@ -43,20 +45,29 @@ class CentralEnv(gymnasium.Env):
         return self.parallel.state(), self._info()
 
     def step(self, action):
-        action = np.asarray(action)
-        if action.shape != self.action_space.shape:
-            raise ValueError(f"CentralEnv: the action must be {self.action_space.shape[0]} phases, got shape "
-                             f"{action.shape}")
+        n = self.action_space.shape[0]
+        expected = (f"{n} phases for Box(0, 1, ({n},)): an array or sequence of finite real numbers (not bools), "
+                    f"|phase| <= {MAX_ACTION:g}, wrapped modulo 1")
+        try:
+            values = np.asarray(action)
+        except (TypeError, ValueError):  # a ragged sequence
+            values = None
+        # dtype kinds i, u, f: ints and floats (no bools, complex numbers, strings, bytes, dates or objects)
+        if values is None or values.shape != self.action_space.shape or values.dtype.kind not in "iuf":
+            raise ActionError(SOURCE, "action", expected, action)
         agents = self.parallel.possible_agents
         _, _, terminations, truncations, _ = self.parallel.step(
-            {agent: action[u:u + 1] for u, agent in enumerate(agents) if agent in self.parallel.agents})
+            {agent: values[u:u + 1] for u, agent in enumerate(agents) if agent in self.parallel.agents})
         alive = [agent for agent in terminations if not terminations[agent]]
         reward = self.records.last_ubar if alive else 0.0
         return self.parallel.state(), float(reward), not alive, any(truncations.values()), self._info()
 
     def _info(self) -> dict[str, Any]:
-        """The learning step and the phase each unit ran."""
-        return {"step": self.parallel.learning_step, "phases": self.parallel.phases()}
+        """The learning step, the phase each unit ran and the PhysicsError that ended the episode, if one did."""
+        info = {"step": self.parallel.learning_step, "phases": self.parallel.phases()}
+        if self.parallel.error is not None:
+            info["error"] = str(self.parallel.error)
+        return info
 
     def close(self) -> None:
         self.parallel.close()

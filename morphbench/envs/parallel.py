@@ -3,10 +3,16 @@
 Agent ``unit_i`` is unit i (1 = starts at the front; it keeps its name when a shuffle moves it). Each ``step`` is
 one learning step of the run loop (morphbench.experiment.run.RunLoop, the loop of ``morphbench run``): the step's
 events, the agents' phases in place of the learners' proposals, the discarded and measured cycles, the validity
-check (a PhysicsError ends the episode), the records. An agent's action is its trial phase (``Box(0, 1, (1,))``,
-cycles; wrapped modulo 1), its observation and its reward what its own sensor measured during the step (mm/cycle,
-noise included). A unit killed by a 'dead' damage event measures nothing: its agent is terminated with observation
-and reward 0. After the configuration's ``steps`` learning steps every agent is truncated.
+check, the records. An agent's action is its trial phase (``Box(0, 1, (1,))``, cycles: one finite real number, a
+Python or numpy int or float or a one-element array or list of one, wrapped modulo 1; anything else, and an action
+for an agent that is not alive, is an ActionError naming the agent), its observation and its reward what its own
+sensor measured during the step (mm/cycle, noise included). A unit killed by a 'dead' damage event measures nothing:
+its agent is terminated with observation and reward 0. After the configuration's ``steps`` learning steps every
+agent is truncated.
+
+A step whose physics leaves the model's validity (a PhysicsError) ends the episode: every agent living before it is
+terminated with observation and reward 0 and the error in its info (``infos[agent]["error"]``, also ``error``); the
+records end at the last valid step, and ``step()`` refuses to go on (EpisodeOver) until ``reset()``.
 
 ``reset(seed)`` builds a fresh world, warms it up at the phases where a run of that seed starts (each unit's learner
 stream's first draw) and measures step 0 there: the initial observation. The same seed gives the same episode; the
@@ -22,9 +28,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from gymnasium.spaces import Box
-from pettingzoo import ParallelEnv as PettingZooParallelEnv
 
+try:
+    from gymnasium.spaces import Box
+    from pettingzoo import ParallelEnv as PettingZooParallelEnv
+except ImportError as exc:  # one line that says what to install, not a traceback ending in a module name
+    raise ImportError(f"morphbench.envs needs the rl extra: pip install 'morphbench[rl]' ({exc})", name=exc.name) \
+        from None
+
+from morphbench.errors import ActionError, EpisodeOver, PhysicsError
 from morphbench.experiment.config import load_run_config
 from morphbench.experiment.records import RunRecords
 from morphbench.experiment.run import RunConfig, RunLoop, run_world
@@ -34,6 +46,11 @@ from morphbench.params import COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, Phys
 from morphbench.shapes.loader import resolve_shape_path
 
 SOURCE = "morphbench.envs"
+MAX_ACTION = 1e6
+"""cycles: the largest action magnitude taken (wrapped modulo 1). A float this large still holds its fraction to
+1e-10 cycle; beyond, the phase a policy meant is lost to rounding (2**1000 wraps to exactly 0), so it is refused."""
+ACTION_SPACE = (f"one finite phase in cycles for Box(0, 1, (1,)): an int or float (numpy's too, not a bool) or a "
+                f"one-element array, |phase| <= {MAX_ACTION:g}, wrapped modulo 1")
 
 
 class Agent:
@@ -82,6 +99,8 @@ class ParallelEnv(PettingZooParallelEnv):
         """the current (or last) episode's records."""
         self._world = None
         self._seed: int | None = None
+        self.error: PhysicsError | None = None
+        """the PhysicsError that ended the current episode, if one did."""
 
     def observation_space(self, agent: str) -> Box:
         return self._observation_spaces[agent]
@@ -107,25 +126,43 @@ class ParallelEnv(PettingZooParallelEnv):
         self.learning_step = 0
         """the learning step last run (0: the initial measurement, at reset)."""
         self.agents = list(self.possible_agents)
+        self.error = None
         observations, _, _, _, infos = self._measure()
         return observations, infos
 
     def step(self, actions: dict[str, Any]):
-        """One learning step with each living agent's phase (every living agent must act)."""
+        """One learning step with each living agent's phase (every living agent must act, no other agent may). Bad
+        actions are refused (ActionError) before anything changes."""
         if not self.agents:
-            raise RuntimeError(f"{SOURCE}: the episode is over (call reset())")
+            why = (f"a PhysicsError at learning step {self.learning_step}: {self.error}" if self.error is not None
+                   else "no agent is alive" if self.learning_step < self.config.steps
+                   else f"its last learning step, {self.config.steps}")
+            raise EpisodeOver(f"{SOURCE}: the episode is over ({why}); call reset()")
+        if not isinstance(actions, dict):
+            raise ActionError(SOURCE, "actions", "a dict of each living agent's action", actions)
+        for agent in actions:
+            if agent not in self.agents:
+                why = ("an agent no longer alive" if agent in self.possible_agents
+                       else f"not an agent of this environment ({self.possible_agents[0]} to "
+                            f"{self.possible_agents[-1]})")
+                raise ActionError(SOURCE, str(agent), f"actions for living agents only ({why})", actions[agent])
         missing = [agent for agent in self.agents if agent not in actions]
         if missing:
-            raise ValueError(f"{SOURCE}: every living agent must act; no action for {', '.join(missing)}")
-        for agent in self.agents:
-            self._learners[self.possible_agents.index(agent)].action = _phase(agent, actions[agent])
+            raise ActionError(SOURCE, missing[0], f"an action from every living agent ({ACTION_SPACE}); no action "
+                                                  f"for {', '.join(missing)}")
+        phases = {agent: _phase(agent, actions[agent]) for agent in self.agents}  # all checked before any is used
+        for agent, phase in phases.items():
+            self._learners[self.possible_agents.index(agent)].action = phase
         self.learning_step += 1
         return self._measure()
 
     def _measure(self):
         """Run the current step through the run loop; its observations, rewards, terminations, truncations, infos
         for the agents living before it, who leave ``agents`` when terminated or truncated."""
-        u_measured = self._loop.step(self.learning_step, self.records)
+        try:
+            u_measured = self._loop.step(self.learning_step, self.records)
+        except PhysicsError as exc:
+            return self._end(exc)
         self._last = np.nan_to_num(u_measured, nan=0.0)
         last_step = self.learning_step == self.config.steps
         if last_step:
@@ -138,6 +175,19 @@ class ParallelEnv(PettingZooParallelEnv):
         infos = {a: {"step": self.learning_step, "phase": self._learners[u].phase} for a, u in units.items()}
         self.agents = [a for a in units if not (terminations[a] or truncations[a])]
         return observations, rewards, terminations, truncations, infos
+
+    def _end(self, error: PhysicsError):
+        """The episode ended by ``error``: every living agent terminated with observation and reward 0, the error in
+        its info; the world, no longer valid, is closed."""
+        self.error = error
+        self.close()
+        self._last = np.zeros(len(self.possible_agents))
+        agents, self.agents = self.agents, []
+        observations = {a: np.zeros(1, dtype=np.float32) for a in agents}
+        infos = {a: {"step": self.learning_step, "phase": self._learners[self.possible_agents.index(a)].phase,
+                     "error": str(error)} for a in agents}
+        return (observations, dict.fromkeys(agents, 0.0), dict.fromkeys(agents, True), dict.fromkeys(agents, False),
+                infos)
 
     def state(self) -> np.ndarray:
         """Every unit's velocity measured at the last step, mm/cycle, in unit order (0 for a dead unit)."""
@@ -154,9 +204,13 @@ class ParallelEnv(PettingZooParallelEnv):
 
 
 def _phase(agent: str, action: Any) -> float:
-    """An action as a phase in [0, 1): one finite number, wrapped modulo 1."""
-    value = np.asarray(action, dtype=float)
-    phase = as_phase(float(value.reshape(-1)[0])) if value.size == 1 else None
-    if phase is None:
-        raise ValueError(f"{SOURCE}: {agent}'s action must be one finite phase, got {action!r}")
+    """An action as a phase in [0, 1) (``ACTION_SPACE``), else ActionError naming the agent."""
+    value = action
+    if isinstance(value, (list, tuple)) and len(value) == 1:
+        value = value[0]
+    if isinstance(value, np.ndarray) and value.size == 1 and value.dtype.kind in "iuf":
+        value = value.reshape(-1)[0]
+    phase = as_phase(value)  # None for a bool, a string, bytes, a complex number, None or any other object
+    if phase is None or abs(value) > MAX_ACTION:
+        raise ActionError(SOURCE, agent, ACTION_SPACE, action)
     return phase

@@ -60,12 +60,19 @@ from morphbench.shapes import Shape, load_shape, params_from_table, read_toml, s
 RUN_KEYS = {"description", "shape", "steps", "seed", "learner", "sensor", "environment", "physics", "events"}
 
 
-def load_run_config(path: str | Path) -> RunConfig:
-    """A run configuration file, or a morphology file taken as a run with every default."""
+def load_run_config(path: str | Path, physics: str | None = None) -> RunConfig:
+    """A run configuration file, or a morphology file taken as a run with every default. ``physics``, a preset's name
+    (``run --physics``), replaces the file's preset and backend; the file's other ``[physics]`` fields stay."""
     path = Path(path)
     table = read_toml(path, "run configuration or morphology file")
+    if physics is not None:
+        check_rule(PHYSICS_PRESET, "", physics, "--physics", "physics")
     if "assembly" in table:
-        return RunConfig(shape=shape_from_table(table, source=str(path), default_name=path.stem))
+        shape = shape_from_table(table, source=str(path), default_name=path.stem)
+        return RunConfig(shape=shape, physics=PHYSICS_PRESETS[physics or "default"])
+    if physics is not None and isinstance(table.get("physics", {}), dict):
+        own = {k: v for k, v in table.get("physics", {}).items() if k not in ("preset", "backend")}
+        table = {**table, "physics": {"preset": physics, **own}}
     return run_config_from_table(table, str(path), base=path.parent)
 
 
@@ -94,7 +101,7 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path,
         load_learner_class(learner)
     except ConfigError as exc:  # it names the spec as if given by --learner: name this file's key instead
         raise ConfigError(source, "learner.name", exc.expected, learner) from None
-    config = RunConfig(
+    fields = dict(
         shape=shape,
         learner=learner,
         learner_params=params_from_table(LearnerParams, learner_table, source, "learner"),
@@ -105,8 +112,45 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path,
         steps=check_rule(STEPS, "", table.get("steps", RunConfig.steps), source, "steps"),
         seed=check_rule(SEED, "", table.get("seed", RunConfig.seed), source, "seed"),
     )
+    try:
+        config = RunConfig(**fields)
+    except ConfigError as exc:  # a rule across fields (params.check_run) names the shape file: name the file the key
+        if exc.source != shape.source or exc.key.startswith("actuator."):  # is in (the actuator is the shape's)
+            raise
+        raise ConfigError(source, exc.key, exc.expected, exc.got) from None
     check_events_happen(config, source)
     return config
+
+
+STORED_KEYS = ("shape", "learner", "learner_params", "sensor", "environment", "physics", "events", "steps", "seed")
+"""the keys of a stored configuration (RunConfig.to_dict, summary.json's ``config``)."""
+
+
+def run_config_from_dict(data: Any, source: str, key: str = "config") -> RunConfig:
+    """A stored configuration (``RunConfig.to_dict``, summary.json's ``config``) read back through the loader of run
+    files, ``run_config_from_table``: a replayed run is checked by the rules of ``morphbench run``. A ConfigError
+    names ``source`` and the stored key (``config.physics.timestep``)."""
+    if not isinstance(data, dict):
+        raise ConfigError(source, key, "a run configuration written by morphbench (a table)", data)
+    for name in STORED_KEYS:
+        if name not in data:
+            raise ConfigError(source, f"{key}.{name}", "a run configuration written by morphbench (it is missing)")
+    for name in ("shape", "learner_params"):
+        if not isinstance(data[name], dict):
+            raise ConfigError(source, f"{key}.{name}", "a table", data[name])
+    shape = data["shape"].get("source")
+    if not isinstance(shape, str):
+        raise ConfigError(source, f"{key}.shape.source", "the path of the run's morphology file", shape)
+    table = {"shape": shape, "learner": {"name": data["learner"], **data["learner_params"]},
+             **{name: data[name] for name in ("sensor", "environment", "physics", "events", "steps", "seed")}}
+    try:
+        return run_config_from_table(table, source, base=Path("."))
+    except ConfigError as exc:
+        if exc.source != source:  # the morphology file's own error names it
+            raise
+        stored = ("learner" if exc.key == "learner.name" else "learner_params" + exc.key[len("learner"):]
+                  if exc.key.startswith("learner.") else exc.key)
+        raise ConfigError(source, f"{key}.{stored}", exc.expected, exc.got) from None
 
 
 def check_events_happen(config: RunConfig, source: str, steps_key: str | None = None) -> None:

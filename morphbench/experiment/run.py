@@ -16,6 +16,7 @@ from typing import Callable
 
 import numpy as np
 
+from morphbench.bench.identity import shape_id
 from morphbench.errors import ConfigError, PhysicsError
 from morphbench.experiment.records import RunRecords
 from morphbench.learning import Controller, load_learner_class, make_controller
@@ -67,7 +68,7 @@ class RunConfig:
         # The shape file by absolute path, so that a run can be replayed from anywhere.
         source = Path(self.shape.source)
         data["shape"] = {"name": self.shape.name, "source": str(source.resolve()) if source.is_file() else str(source),
-                         "n_units": self.shape.n_units}
+                         "n_units": self.shape.n_units, "id": shape_id(self.shape)}  # checked at replay
         for key in ("learner_params", "sensor", "environment", "physics"):
             data[key] = dataclasses.asdict(data[key])
         data["events"] = [dataclasses.asdict(e) for e in self.events]  # each its kind, step and own fields

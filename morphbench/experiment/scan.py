@@ -22,7 +22,14 @@ import pandas as pd
 
 from morphbench.experiment.events import DamageEvent, RunState
 from morphbench.experiment.run import measure
-from morphbench.params import DEFAULT_PHYSICS, EnvironmentParams, PhysicsParams
+from morphbench.params import (
+    DEFAULT_PHYSICS,
+    MAX_SCAN_POINTS,
+    SCAN_POINT_BYTES,
+    EnvironmentParams,
+    PhysicsParams,
+    check_plan_size,
+)
 from morphbench.physics import make_world
 from morphbench.sensing import IdealSensor
 from morphbench.shapes import Shape
@@ -32,8 +39,26 @@ DEFAULT_CYCLES = 12  # cycles measured per point: the gait repeats every cycle, 
 DEFAULT_DISCARD = 2  # cycles dropped first: the pressures and the chain settle into the periodic gait
 
 
+def scan_size(n_units: int, resolution: int, samples: int | None = None) -> int:
+    """The number of points ``scan_phases`` gives, computed without building them."""
+    if n_units < 2:
+        return 1
+    return resolution ** (n_units - 1) if n_units <= 3 else samples or resolution * resolution
+
+
+def check_scan_size(n_units: int, resolution: int, samples: int | None, source: str, key: str) -> int:
+    """The number of points of a scan, or ConfigError naming ``source`` and ``key`` (the option or file key that set
+    it) if it exceeds MAX_SCAN_POINTS."""
+    sampled = n_units > 3 and samples
+    what = f"scan points ({'samples' if sampled else f'resolution^{min(n_units - 1, 2)}'})"
+    return check_plan_size(scan_size(n_units, resolution, samples), MAX_SCAN_POINTS, SCAN_POINT_BYTES, what, source,
+                           key, samples if sampled else resolution)
+
+
 def scan_phases(n_units: int, resolution: int, samples: int | None = None, seed: int = 0) -> np.ndarray:
-    """(P, n_units) phase vectors with unit 1 at phase 0: a full grid up to 3 units, seeded samples beyond."""
+    """(P, n_units) phase vectors with unit 1 at phase 0: a full grid up to 3 units, seeded samples beyond (at most
+    MAX_SCAN_POINTS: ConfigError)."""
+    check_scan_size(n_units, resolution, samples, "scan", "samples" if n_units > 3 and samples else "resolution")
     if n_units < 2:
         return np.zeros((1, n_units))
     if n_units <= 3:

@@ -14,14 +14,16 @@ The plug-in interface. A plug-in need not subclass ``morphbench.learning.Learner
   reproducible and units independent);
 - have ``propose() -> float``: the phase the unit actuates with during the next learning step;
 - have ``update(velocity: float) -> bool``: the unit's own measured velocity (mm/cycle) at the proposed phase;
-  return whether the trial was accepted (this feeds the acceptance rate). The two calls strictly alternate;
+  return whether the trial was accepted, True or False (this feeds the acceptance rate). The two calls strictly
+  alternate;
 - expose ``phase``: the kept phase, in [0, 1) right after construction, recorded every step.
 
 Phases are in cycles: a proposed or kept phase that is a finite number outside [0, 1) is wrapped modulo 1 (1.25 is
-0.25, -0.1 is 0.9). Anything else (a bool, a list, None, a string, NaN or an infinity) is refused, and so is a plug-in
-whose ``__init__``, ``propose``, ``update`` or ``phase`` raises (any exception, ``RecursionError`` and ``SystemExit``
-included): the run stops with a ``morphbench.errors.PluginError`` naming the plug-in, the method, the unit and the
-learning step (one line and exit status 2 from ``morphbench run``; a failed run with that reason in a suite).
+0.25, -0.1 is 0.9). Anything else (a bool, a list, None, a string, NaN or an infinity) is refused, as is an
+``update`` that returns anything but True or False, and a plug-in whose ``__init__``, ``propose``, ``update`` or
+``phase`` raises (any exception, ``RecursionError`` and ``SystemExit`` included): the run stops with a
+``morphbench.errors.PluginError`` naming the plug-in, the method, the unit and the learning step (one line and exit
+status 2 from ``morphbench run``; a failed run with that reason in a suite).
 
 Each unit gets its own instance and sees only its own measurements. A complete minimal example, a greedy learner
 that keeps a trial only when it measured faster than the kept phase::
@@ -266,11 +268,10 @@ def proposed_phase(learner: object, unit: int, step: int) -> float:
 
 
 def update_accepted(learner: object, unit: int, step: int, velocity: float) -> bool:
-    """The learner's ``update(velocity)`` as a bool; a PluginError if it raises or its value has no truth value."""
+    """The learner's ``update(velocity)``: whether it accepted, a bool (numpy's too); anything else (None, a number, a
+    NaN, a string, an array) is a PluginError, as for a phase: bool(nan) is True, so a NaN counted as acceptance."""
     value = call_learner(learner, "update", unit, step, velocity)
-    try:
-        return bool(value)
-    except Exception as exc:  # e.g. a numpy array of several values
+    if not isinstance(value, (bool, np.bool_)):
         raise PluginError(learner_spec(type(learner)), "update(velocity)", f"of unit {unit + 1} at learning step "
-                          f"{step} to return whether it accepted (its value has no truth value: {describe(exc)})",
-                          value) from None
+                          f"{step} to return whether it accepted the trial (True or False)", value)
+    return bool(value)

@@ -1,8 +1,11 @@
 """Video of a finished run: replay its configuration (the simulation is deterministic) with a recorder attached.
 
-The replay is checked against the run's own records: if its learning steps do not give the Ubar that
-``steps.parquet`` recorded (the shape file or the learner changed since, or another PyBullet build), no video is
-written and a ConfigError says where they part.
+Before anything is simulated, the stored configuration is read by the rules of ``morphbench run`` (the run-file
+loader, ``run_config_from_dict``), its shape file must still be the shape the run had (name, units and, for runs
+that stored it, the content's id), and ``steps.parquet`` must have the records' schema (an integer ``step`` 0 to the
+run's steps, each once, and a float ``ubar``). The replay is then checked against the run's own records: if its
+learning steps do not give the Ubar that ``steps.parquet`` recorded (the learner changed since, or another PyBullet
+build), no video is written and a ConfigError says where they part.
 """
 
 from __future__ import annotations
@@ -15,8 +18,10 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
+from morphbench.bench.identity import shape_id
 from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig, run
+from morphbench.experiment.config import run_config_from_dict
 from morphbench.files import is_dir, is_file
 from morphbench.params import VideoParams
 from morphbench.render.video import VideoRecorder, check_output_path, check_video_params
@@ -52,14 +57,39 @@ def load_run(run_dir: str | os.PathLike) -> tuple[RunConfig, pd.DataFrame]:
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError) as exc:
         written = "a suite run's result.json" if in_suite else "a summary.json"
         raise ConfigError(str(summary_file), "config", f"{written} written by morphbench ({exc})") from None
-    config = RunConfig.from_dict(config_data, source=str(summary_file))
+    key = "summary.config" if in_suite else "config"
+    config = run_config_from_dict(config_data, str(summary_file), key)
+    _check_shape(config, config_data["shape"], str(summary_file), key)
     try:
         steps = pd.read_parquet(steps_file)
     except Exception as exc:  # pyarrow raises its own types for a damaged file
         raise ConfigError(str(steps_file), "(file)", f"a steps table written by morphbench ({exc})") from None
-    if not {"step", "ubar"} <= set(steps.columns):
-        raise ConfigError(str(steps_file), "columns", "a steps table with 'step' and 'ubar'", list(steps.columns))
+    _check_steps(steps, config.steps, str(steps_file))
     return config, steps
+
+
+def _check_shape(config: RunConfig, stored: dict, source: str, key: str) -> None:
+    """ConfigError unless the shape file loaded now is the one the run had: its name and units, and its content's id
+    where the run stored one (a file swapped for another of as many units would replay, and show, another robot)."""
+    shape = config.shape
+    for name, now in (("name", shape.name), ("n_units", shape.n_units), ("id", shape_id(shape))):
+        if (name in stored or name != "id") and stored.get(name) != now:
+            raise ConfigError(source, f"{key}.shape.{name}", f"the shape the run had; its file {shape.source} now "
+                                                             f"holds another ({name} {now!r})", stored.get(name))
+
+
+def _check_steps(steps: pd.DataFrame, last: int, source: str) -> None:
+    """ConfigError unless ``steps`` has the records' schema where a replay reads it: an integer ``step`` holding 0 to
+    ``last`` each once, and a float ``ubar``."""
+    for column, kinds, what in (("step", "iu", "integers"), ("ubar", "f", "floats")):
+        if column not in steps.columns:
+            raise ConfigError(source, "columns", f"a steps table with '{column}'", list(steps.columns))
+        if steps[column].dtype.kind not in kinds:
+            raise ConfigError(source, column, f"a column of {what}", str(steps[column].dtype))
+    if sorted(steps.step.tolist()) != list(range(last + 1)):
+        raise ConfigError(source, "step", f"the learning steps 0 to {last} of the run, each once",
+                          f"{len(steps)} rows from {steps.step.min()} to {steps.step.max()}" if len(steps) else
+                          "no rows")
 
 
 def render_run(run_dir: str | os.PathLike, out_path: str | os.PathLike, params: VideoParams = VideoParams(),

@@ -224,7 +224,7 @@ def _generate(generator: str, assembly: dict[str, Any], unit: UnitParams, dummy:
         raise ConfigError(source, "assembly.dummy", f"true: {what} bellows needs a body to push against", False)
     if generator == "chain":
         return chain(dims[2], has_dummy, unit, dummy, actuator, **meshes)
-    axes = "xyz" if generator == "lattice" else "xy"
+    axes = ("x", "y", "z") if generator == "lattice" else ("x", "y")  # exact names: "" and "xy" are substrings of "xyz"
     actuated = assembly.get("actuated_axes", ["x"])
     if not (isinstance(actuated, list) and actuated and all(isinstance(a, str) and a in axes for a in actuated)
             and len(set(actuated)) == len(actuated)):
