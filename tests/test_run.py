@@ -52,6 +52,41 @@ def test_each_learner_gets_only_its_own_units_measurement():
     assert not np.allclose(SpyLearner.instances[0].seen, SpyLearner.instances[2].seen)
 
 
+def remembered_as_rule(units: pd.DataFrame, rule: str) -> np.ndarray:
+    """Per unit, the memory the rule says follows from the recorded measurements: Thermal keeps the last accepted
+    measurement (step 0's is always taken), Flaky the last one."""
+    expected = []
+    for _, own in units.groupby("unit", sort=True):
+        memory = np.nan
+        for measured, accepted in zip(own.u_measured, own.accepted):
+            memory = measured if (accepted or rule == "flaky") else memory
+            expected.append(memory)
+    return np.array(expected)
+
+
+@pytest.mark.parametrize("learner", ["thermal", "flaky", "hill-climber"])
+def test_the_memory_recorded_is_the_one_each_learner_compares_with(learner):
+    records = run(RunConfig(shape=CHAIN_3, learner=learner, steps=12, seed=2, environment=EnvironmentParams(noise=0.5)))
+    units = records.units().sort_values(["unit", "step"])
+    if learner == "hill-climber":  # each unit's measurement at the kept vector: kept while no trial beats it
+        memory = units.pivot(index="step", columns="unit", values="u_memory")
+        measured = units.pivot(index="step", columns="unit", values="u_measured")
+        kept = [step for step, row in units.groupby("step") if row.accepted.all()]
+        assert len(kept) < len(memory)  # some trial was refused, or memory would just be the measurement
+        last = memory.index.map(lambda k: max(s for s in kept if s <= k))
+        np.testing.assert_array_equal(memory.to_numpy(), measured.loc[last].to_numpy())
+        return
+    assert not units.accepted.all() or learner == "flaky"
+    np.testing.assert_array_equal(units.u_memory.to_numpy(), remembered_as_rule(units, learner))
+    if learner == "thermal":
+        assert (units.u_memory != units.u_measured).any()
+
+
+def test_a_plugin_without_a_memory_records_nan():
+    units = run(RunConfig(shape=CHAIN_3, learner=f"{__name__}:SpyLearner", steps=2, seed=1)).units()
+    assert units.u_memory.isna().all() and units.u_measured.notna().all()
+
+
 def test_measurement_noise_has_the_requested_spread_and_its_own_stream_per_unit():
     records = run(RunConfig(shape=CHAIN_3, steps=40, seed=3, environment=EnvironmentParams(noise=1.0)))
     units = records.units()
