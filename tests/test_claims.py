@@ -7,6 +7,8 @@ at an event), remembered velocities a fixed excess above the true ones, and the 
 """
 
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -270,3 +272,9 @@ def test_the_landscape_measures_have_their_textbook_answers():
     assert C.abruptness(np.where(two > 2, 1.0, 0.0)) == pytest.approx(1.0)
     assert C.abruptness(two) < 0.6
     assert math.isnan(C.abruptness(np.ones((4, 4))))
+
+
+def test_docs_paper_lists_every_claim_in_order():
+    text = (Path(__file__).resolve().parents[1] / "docs" / "paper.md").read_text(encoding="utf-8")
+    listed = re.findall(r"^\| ((?:scan-2|S\d+|T|hw)-[\w-]+) \|", text, flags=re.MULTILINE)
+    assert listed == [claim.id for claim in C.CLAIMS]
