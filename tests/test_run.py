@@ -4,6 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from morphbench.errors import PluginError
 from morphbench.experiment import RunConfig, run
 from morphbench.params import EnvironmentParams, LearnerParams, SensorParams
 from morphbench.shapes import load_shape
@@ -82,9 +83,31 @@ def test_the_memory_recorded_is_the_one_each_learner_compares_with(learner):
         assert (units.u_memory != units.u_measured).any()
 
 
-def test_a_plugin_without_a_memory_records_nan():
+class Remembering(SpyLearner):
+    """A plug-in whose memory is its last measurement doubled for 2 steps, then no number."""
+
+    @property
+    def memory(self):
+        if len(self.seen) > 2:
+            return "no number"
+        return 2 * self.seen[-1] if self.seen else None
+
+
+class Forgetful(SpyLearner):
+    @property
+    def memory(self):
+        raise RuntimeError("lost it")
+
+
+def test_a_plugin_without_a_usable_memory_records_nan_and_one_that_raises_stops_the_run():
     units = run(RunConfig(shape=CHAIN_3, learner=f"{__name__}:SpyLearner", steps=2, seed=1)).units()
     assert units.u_memory.isna().all() and units.u_measured.notna().all()
+    units = run(RunConfig(shape=CHAIN_3, learner=f"{__name__}:Remembering", steps=4, seed=1)).units()
+    early = units.step < 2
+    np.testing.assert_array_equal(units.u_memory[early], 2 * units.u_measured[early])
+    assert units.u_memory[~early].isna().all()
+    with pytest.raises(PluginError, match="memory of unit 1 to be readable .*lost it"):
+        run(RunConfig(shape=CHAIN_3, learner=f"{__name__}:Forgetful", steps=1, seed=1))
 
 
 def test_measurement_noise_has_the_requested_spread_and_its_own_stream_per_unit():
