@@ -261,8 +261,9 @@ def main() -> None:
     lines.append(f"| default (quasi-static) | optical | {default_lp.discard_cycles} (default) | {r['median']:.1f} | "
                  f"{r['by60']} of {r['seeds']} | {r['hold']:.2f} | all 8 by step 60 |")
     lines += ["", "## Temperature", "",
-              "The spec's rule: a noiseless 3-unit Thermal run accepts about 25% of trials once learned (chain-3, "
-              "default physics, ideal sensor, seeds 0-15, 300 steps, acceptance and true Ubar over steps 150-300).",
+              "The paper's rule (Fig. 2B; docs/paper.md): a noiseless 3-unit Thermal run accepts about 25% of trials "
+              "once learned (chain-3, default physics, ideal sensor, seeds 0-15, 300 steps, acceptance and true Ubar "
+              "over steps 150-300).",
               "", "| T (mm/cycle) | acceptance | Ubar |", "|---|---|---|"]
     for temperature in (0.25, 0.5, 1.0):
         lp = dataclasses.replace(default_lp, temperature=temperature)

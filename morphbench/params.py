@@ -413,7 +413,8 @@ class LearnerParams:
     """delta_s: a trial phase is the kept phase plus uniform(-1, 1) * step_size, modulo 1."""
     temperature: float = param(0.5, Range(0, math.inf, high_inclusive=True), "mm/cycle")
     """T, mm/cycle: a worse trial (lower velocity by d) is accepted with probability exp(-d / T). Chosen as the
-    spec asks: a noiseless 3-unit Thermal run accepts about 25% of trials once learned (docs/fidelity.md)."""
+    paper reports for its simulations (Fig. 2B): a noiseless 3-unit Thermal run accepts about 25% of trials once
+    learned (docs/fidelity.md, docs/paper.md)."""
     cycles_per_step: int = param(2, CYCLES, "cycles")
     """n_act: actuation cycles per learning step; a measurement is the displacement over them / n_act."""
     warmup_cycles: int = param(1, between(0, MAX_CYCLES_PER_STEP, integer=True), "cycles")
@@ -435,7 +436,7 @@ class FrictionFieldParams:
     field with values in [-1, 1], the same for every body (mu0 is the body's own friction)."""
 
     amplitude: float = param(0.0, Range(0, 1))
-    """a, in [0, 1): 0 is a uniform ground; the spec suggests 0.2-0.4."""
+    """a, in [0, 1): 0 is a uniform ground; docs/paper.md suggests 0.2-0.4."""
     correlation_length: float = param(0.06, between(0.001, 100), "m")
     """m, shortest wavelength in the field (about one unit)."""
     period: float = param(2.0, between(0.01, 1e4), "m")
@@ -454,7 +455,7 @@ class EnvironmentParams:
     """multiplies every body's friction (a friction drop is an event that changes it)."""
     vibration: float = param(1.0, between(0, 10, low_inclusive=False))
     """factor on an active unit's friction while its own pump runs (the pump shakes the unit); 1 is no vibration,
-    the spec suggests 0.8. The dummy never vibrates."""
+    docs/paper.md suggests 0.8. The dummy never vibrates."""
     noise: float = param(0.0, between(0, 1000), "mm/cycle")
     """mm/cycle, standard deviation of Gaussian noise added to each measured velocity, on top of the sensor's own."""
     friction_field: FrictionFieldParams = field(default_factory=FrictionFieldParams)

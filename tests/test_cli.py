@@ -28,7 +28,7 @@ CHAIN3 = str(SHAPES / "chain-3.toml")
 RUN_FILES = {"units.parquet", "steps.parquet", "pieces.parquet", "summary.json", "learning_curve.png",
              "trajectory.png"}
 UNIT_COLUMNS = ["step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true",
-                "accepted", "x_m", "y_m", "heading_rad"]  # records.py docs
+                "u_memory", "accepted", "x_m", "y_m", "heading_rad"]  # records.py docs
 STEP_COLUMNS = ["step", "time_s", "ubar", "ubar_true", "acceptance", "event", "x_m", "y_m", "heading_rad", "u_heading"]
 
 

@@ -24,7 +24,7 @@ EVENTS = parse_events([{"step": 2, "kind": "friction", "scale": 0.8}, {"step": 3
                                                                     "mode": "dead"},
                        {"step": 6, "kind": "cut", "link": 1}], "test", 3, len(CHAIN_3.links))
 """one event of each kind, the death before the cut."""
-LEARNER_OWN = ["phase_kept", "accepted"]
+LEARNER_OWN = ["phase_kept", "accepted", "u_memory"]
 """what an environment's records cannot share with a run's: the learners' decisions."""
 
 

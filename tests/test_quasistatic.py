@@ -57,7 +57,7 @@ def weighted_median_shift(a, w):
 @pytest.mark.parametrize("seed", range(5))
 def test_rigid_bellows_keep_the_friction_weighted_median_at_rest(seed):
     """With rigid bellows the shape of the chain is fixed by the extensions, and the whole chain shifts so that the
-    friction-weighted median of the bodies' required displacements is zero (the rigid limit of the spec)."""
+    friction-weighted median of the bodies' required displacements is zero (the rigid limit, docs/paper.md)."""
     rng = np.random.default_rng(seed)
     units = 4
     world = world_of(chain(units, actuator={"stiffness": 1e9}))

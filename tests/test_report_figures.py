@@ -373,11 +373,7 @@ def test_the_learning_claims_read_the_first_matching_condition():
     found = verdicts({"metrics": metrics, "runs": runs})
     assert found["S1-level"].measured.value == 4.4 and found["S1-level"].holds
     assert found["S1-level"].measured.on == "S1, S9: chain-2 thermal (112 runs)"
-    assert found["S1-speed"].holds and found["S1-every-run"].holds
     assert found["T-acceptance"].measured.value == 0.6 and not found["T-acceptance"].holds
-    slow = verdicts({"metrics": pd.DataFrame([metrics_row(steps_to_threshold=np.nan, reached_fraction=0.0)])})
-    assert slow["S1-speed"].measured.value == math.inf and not slow["S1-speed"].holds
-    assert not slow["S1-every-run"].holds
     flat = verdicts({"metrics": pd.DataFrame([metrics_row(plateau=False)])})
     assert flat["S1-level"].holds is None and "no plateau" in flat["S1-level"].reason
 

@@ -4,6 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from morphbench.errors import PluginError
 from morphbench.experiment import RunConfig, run
 from morphbench.params import EnvironmentParams, LearnerParams, SensorParams
 from morphbench.shapes import load_shape
@@ -50,6 +51,63 @@ def test_each_learner_gets_only_its_own_units_measurement():
         assert learner.seen == pytest.approx(own.tolist(), abs=0, rel=0)
     # the units moved differently, so a learner fed another unit's data would have been caught above
     assert not np.allclose(SpyLearner.instances[0].seen, SpyLearner.instances[2].seen)
+
+
+def remembered_as_rule(units: pd.DataFrame, rule: str) -> np.ndarray:
+    """Per unit, the memory the rule says follows from the recorded measurements: Thermal keeps the last accepted
+    measurement (step 0's is always taken), Flaky the last one."""
+    expected = []
+    for _, own in units.groupby("unit", sort=True):
+        memory = np.nan
+        for measured, accepted in zip(own.u_measured, own.accepted):
+            memory = measured if (accepted or rule == "flaky") else memory
+            expected.append(memory)
+    return np.array(expected)
+
+
+@pytest.mark.parametrize("learner", ["thermal", "flaky", "hill-climber"])
+def test_the_memory_recorded_is_the_one_each_learner_compares_with(learner):
+    records = run(RunConfig(shape=CHAIN_3, learner=learner, steps=12, seed=2, environment=EnvironmentParams(noise=0.5)))
+    units = records.units().sort_values(["unit", "step"])
+    if learner == "hill-climber":  # each unit's measurement at the kept vector: kept while no trial beats it
+        memory = units.pivot(index="step", columns="unit", values="u_memory")
+        measured = units.pivot(index="step", columns="unit", values="u_measured")
+        kept = [step for step, row in units.groupby("step") if row.accepted.all()]
+        assert len(kept) < len(memory)  # some trial was refused, or memory would just be the measurement
+        last = memory.index.map(lambda k: max(s for s in kept if s <= k))
+        np.testing.assert_array_equal(memory.to_numpy(), measured.loc[last].to_numpy())
+        return
+    assert not units.accepted.all() or learner == "flaky"
+    np.testing.assert_array_equal(units.u_memory.to_numpy(), remembered_as_rule(units, learner))
+    if learner == "thermal":
+        assert (units.u_memory != units.u_measured).any()
+
+
+class Remembering(SpyLearner):
+    """A plug-in whose memory is its last measurement doubled for 2 steps, then no number."""
+
+    @property
+    def memory(self):
+        if len(self.seen) > 2:
+            return "no number"
+        return 2 * self.seen[-1] if self.seen else None
+
+
+class Forgetful(SpyLearner):
+    @property
+    def memory(self):
+        raise RuntimeError("lost it")
+
+
+def test_a_plugin_without_a_usable_memory_records_nan_and_one_that_raises_stops_the_run():
+    units = run(RunConfig(shape=CHAIN_3, learner=f"{__name__}:SpyLearner", steps=2, seed=1)).units()
+    assert units.u_memory.isna().all() and units.u_measured.notna().all()
+    units = run(RunConfig(shape=CHAIN_3, learner=f"{__name__}:Remembering", steps=4, seed=1)).units()
+    early = units.step < 2
+    np.testing.assert_array_equal(units.u_memory[early], 2 * units.u_measured[early])
+    assert units.u_memory[~early].isna().all()
+    with pytest.raises(PluginError, match="memory of unit 1 to be readable .*lost it"):
+        run(RunConfig(shape=CHAIN_3, learner=f"{__name__}:Forgetful", steps=1, seed=1))
 
 
 def test_measurement_noise_has_the_requested_spread_and_its_own_stream_per_unit():

@@ -1,7 +1,10 @@
-"""The paper's quantitative statements, each checked against a suite's stored tables (no simulation).
+"""The paper's findings, each checked against a suite's stored tables (no simulation).
 
-The spec (shared/spec/robotic-matter.md, section 3) quotes the numbers the paper reports; morphbench's defaults are
-calibrated to reproduce its simulations. Each ``Claim`` here is one of them: an id, the statement, the paper's value,
+The paper is Oliveri et al., "Continuous learning of emergent behavior in robotic matter", PNAS 118(21) e2017015118
+(2021); docs/paper.md lists its findings with the figure each comes from, the experiment of benchmarks/paper.toml
+that reproduces it and the claim here that checks it. morphbench's defaults are meant to reproduce its simulations;
+claims whose scenario says '(hardware)' are findings of its experiments. Each ``Claim`` is one finding: an id, the
+statement, the paper's value,
 a function that measures the same quantity from the tables of a results directory (``runs``, ``steps``, ``units``,
 ``scans``, ``metrics``: morphbench.bench.store and metrics), a tolerance and the rule that decides whether it holds:
 
@@ -14,7 +17,10 @@ needs, a sentence saying what is missing: the claim is then 'not measured', neve
 one ``Verdict`` per claim, in the order of ``CLAIMS``. A new claim is one more entry of ``CLAIMS``.
 
 The tolerances are this project's reading of the paper's "about": a quarter of a peak of 4.5 mm/cycle, a tenth of a
-cycle of phase, ten percentage points of acceptance.
+cycle of phase, ten percentage points of acceptance. A qualitative finding is a comparison between two conditions of
+the suite, measured as a difference (or a ratio) that the rule puts on the right side of zero (or one): Flaky's Ubar
+after an event minus Thermal's, at least 0. No rule here holds by construction: each test of tests/test_claims.py
+feeds a claim tables where it fails.
 """
 
 from __future__ import annotations
@@ -35,8 +41,9 @@ PROMINENCE = 0.1
 """a local maximum of a curve is significant when it stands out by this fraction of the curve's range."""
 BIMODAL = 5 / 9
 """Sarle's bimodality coefficient of a uniform distribution: above it, a distribution is taken as bimodal."""
-LEARNED_AFTER = 20
-"""the learning step after which the paper calls 2-unit Thermal learning done (its distribution unimodal)."""
+LEARNED_AFTER = M.LEARNED_AFTER
+WINDOW = 20
+"""learning steps before and after an event over which acceptance is compared."""
 
 
 @dataclass(frozen=True)
@@ -50,7 +57,8 @@ class Measured:
 class Claim:
     id: str
     scenario: str
-    """the spec's scenario (S1, S2, ...) or 'calibration'."""
+    """the experiment of benchmarks/paper.toml that reproduces it (S1, S2, ...), '(hardware)' for a finding of the
+    paper's experiments."""
     statement: str
     paper: float
     unit: str
@@ -58,6 +66,8 @@ class Claim:
     tolerance: float
     rule: str
     """one of RULES (see the module doc)."""
+    source: str = ""
+    """where the paper says it: 'Fig. 1F', 'SI Fig. S5C', 'Conclusion'."""
 
     def holds(self, value: float) -> bool:
         if not math.isfinite(value):
@@ -254,8 +264,7 @@ def _experiments_of(tables: dict, condition_id: str) -> str:
 
 def _metric_measure(column: str, n_units: int, need_plateau: bool = False):
     """A measuring function of a column of the chosen condition's metrics (``condition``). With ``need_plateau``, not
-    measured unless the fit found a plateau (no U_eq, and no steps to reach a fraction of it, without one); steps to
-    the threshold that no run reached are infinite (the claim does not hold)."""
+    measured unless the fit found a plateau (no U_eq without one)."""
     def measure(tables: dict) -> Measured | str:
         found = condition(tables, n_units)
         if isinstance(found, str):
@@ -264,8 +273,6 @@ def _metric_measure(column: str, n_units: int, need_plateau: bool = False):
         if need_plateau and not bool(row.get("plateau", False)):
             return f"no plateau on {on}: U_eq would be an extrapolation"
         value = float(row[column])
-        if column == "steps_to_threshold" and not math.isfinite(value) and row.get("reached_fraction") == 0:
-            return Measured(math.inf, f"{on}: no run reached it")
         return Measured(value, on) if math.isfinite(value) else f"not defined on {on}"
     return measure
 
@@ -301,41 +308,644 @@ def _unimodal_after(tables: dict) -> Measured | str:
     return Measured(value, f"{on}, each run's mean Ubar after step {LEARNED_AFTER}")
 
 
+# --- conditions of the suite's experiments ---------------------------------------------------------------------
+
+
+def _conditions(tables: dict, experiment: str, **match) -> pd.DataFrame | str:
+    """The metrics rows (suite order) of the conditions whose runs belong to ``experiment`` and whose columns equal
+    ``match`` (floats compared with np.isclose; ``environment`` is the ground's label), with finished runs."""
+    metrics, runs = _table(tables, "metrics"), _table(tables, "runs")
+    if metrics.empty:
+        return "the suite has no learning runs"
+    if runs.empty or "experiments" not in runs:
+        return "the runs table lacks experiments"
+    names = runs.experiments.fillna("").astype(str).str.split(";")
+    ids = set(runs.condition_id[names.apply(lambda listed: experiment in listed)])
+    chosen = metrics.condition_id.isin(ids)
+    for column, value in match.items():
+        if column not in metrics:
+            return f"the metrics lack {column}"
+        if isinstance(value, float):
+            chosen &= np.isclose(metrics[column].astype(float), value)
+        else:
+            chosen &= metrics[column] == value
+    mine = metrics[chosen]
+    if "final_ubar" in mine:
+        mine = mine[np.isfinite(mine.final_ubar.astype(float))]
+    if mine.empty:
+        wanted = ", ".join(f"{k} {v}" for k, v in match.items())
+        return f"the suite has no finished runs of {experiment}" + (f" with {wanted}" if wanted else "")
+    return mine
+
+
+def _one(tables: dict, experiment: str, **match) -> tuple[pd.Series, str] | str:
+    """The first condition of ``_conditions`` and what it is ('S5: chain-3 flaky (112 runs)')."""
+    found = _conditions(tables, experiment, **match)
+    if isinstance(found, str):
+        return found
+    row = found.iloc[0]
+    done = int(row.runs - row.get("failed", 0) - row.get("missing", 0))
+    extra = "".join(f", {k} {_text(row[k])}" for k in match if k not in ("learner", "n_units"))
+    return row, f"{experiment}: {row['shape']} {row['learner']}{extra} ({done} runs)"
+
+
+def _text(value) -> str:
+    return f"{value:g}" if isinstance(value, (float, np.floating)) else str(value)
+
+
+def _steps_of(tables: dict, row: pd.Series) -> pd.DataFrame:
+    steps = _table(tables, "steps")
+    if steps.empty:
+        raise ValueError("the suite has no learning steps")
+    return steps[steps.condition_id == row.condition_id]
+
+
+def _units_of(tables: dict, row: pd.Series) -> pd.DataFrame:
+    units, runs = _table(tables, "units"), _table(tables, "runs")
+    if units.empty or runs.empty:
+        raise ValueError("the suite has no per-unit records")
+    return units[units.run_id.isin(runs.run_id[runs.condition_id == row.condition_id])]
+
+
+def _event_step(row: pd.Series) -> int:
+    step = float(row.get("recovery_step", math.nan))
+    if not math.isfinite(step):
+        raise ValueError(f"condition {row.condition_id} records no event")
+    return int(step)
+
+
+# what a condition is measured by: each takes the tables and the condition's metrics row
+
+def final_ubar(tables: dict, row: pd.Series) -> float:
+    return float(row.final_ubar)
+
+
+def metric(column: str) -> Callable[[dict, pd.Series], float]:
+    return lambda tables, row: float(row[column])
+
+
+def ubar_after_event(tables: dict, row: pd.Series) -> float:
+    """The mean true Ubar over every run and every step from the condition's first event on."""
+    steps = _steps_of(tables, row)
+    return float(steps.ubar_true[steps.step >= _event_step(row)].mean())
+
+
+def acceptance_ratio(tables: dict, row: pd.Series) -> float:
+    """Mean acceptance over the WINDOW steps from the first event on, over that of the WINDOW steps before it."""
+    steps, event = _steps_of(tables, row), _event_step(row)
+    before = steps.acceptance[(steps.step < event) & (steps.step >= event - WINDOW)].mean()
+    after = steps.acceptance[(steps.step >= event) & (steps.step < event + WINDOW)].mean()
+    return float(after / before) if before > 0 else math.nan
+
+
+def acceptance_change(tables: dict, row: pd.Series) -> float:
+    """Mean acceptance over the WINDOW steps from the first event on, minus that of the WINDOW steps before it."""
+    steps, event = _steps_of(tables, row), _event_step(row)
+    before = steps.acceptance[(steps.step < event) & (steps.step >= event - WINDOW)].mean()
+    after = steps.acceptance[(steps.step >= event) & (steps.step < event + WINDOW)].mean()
+    return float(after - before)
+
+
+def kept_level(tables: dict, row: pd.Series) -> float:
+    """Mean true Ubar over the last WINDOW steps of the runs over that of the WINDOW steps before the first event:
+    how much of its level the assembly has again at the end."""
+    steps, event = _steps_of(tables, row), _event_step(row)
+    before = steps.ubar_true[(steps.step < event) & (steps.step >= event - WINDOW)].mean()
+    end = steps.ubar_true[steps.step > steps.step.max() - WINDOW].mean()
+    return float(end / before) if before > 0 else math.nan
+
+
+def acceptance_spread(tables: dict, row: pd.Series) -> float:
+    """The range of the mean acceptance over blocks of 50 learning steps after step LEARNED_AFTER."""
+    steps = _steps_of(tables, row)
+    late = steps[steps.step > LEARNED_AFTER]
+    blocks = late.groupby((late.step - LEARNED_AFTER - 1) // 50).acceptance.mean()
+    return float(np.ptp(blocks.to_numpy())) if len(blocks) > 1 else math.nan
+
+
+def distribution(key: str) -> Callable[[dict, pd.Series], float]:
+    """A value of metrics.step_distribution (Fig. 1F) of the condition's true Ubar after step LEARNED_AFTER."""
+    return lambda tables, row: float(M.step_distribution(_steps_of(tables, row))[key])
+
+
+def learned_by(step: int) -> Callable[[dict, pd.Series], float]:
+    """The seed-averaged true Ubar over steps ``step`` +- 2 as a fraction of U_eq (NaN without a plateau)."""
+    def value(tables: dict, row: pd.Series) -> float:
+        if not bool(row.get("plateau", False)) or not row.u_eq > 0:
+            return math.nan
+        steps = _steps_of(tables, row)
+        return float(steps.ubar_true[(steps.step >= step - 2) & (steps.step <= step + 2)].mean() / row.u_eq)
+    return value
+
+
+def improvement(tables: dict, row: pd.Series) -> float:
+    """Seed-averaged true Ubar over steps 45-55 minus over steps 0-5: the first 50 steps' gain."""
+    steps = _steps_of(tables, row)
+    late = steps.ubar_true[(steps.step >= 45) & (steps.step <= 55)].mean()
+    return float(late - steps.ubar_true[steps.step <= 5].mean())
+
+
+def memory_excess(tables: dict, row: pd.Series) -> float:
+    """Mean remembered minus true trial Ubar after step LEARNED_AFTER (metrics.memory_ubar): how far the memory
+    overestimates what the units now do."""
+    table = M.memory_ubar(_units_of(tables, row))
+    late = table[table.step > LEARNED_AFTER]
+    if late.empty:
+        raise ValueError("the per-unit records lack u_memory")
+    return float((late.ubar_memory - late.ubar_true).mean())
+
+
+def learned_phase_difference(tables: dict, row: pd.Series) -> float:
+    """The circular mean over runs and steps after LEARNED_AFTER of the kept phase of the unit at position 2 minus
+    that of position 1 (a 2-unit assembly's gait, on the 2-unit scan's axis)."""
+    units = _units_of(tables, row)
+    units = units[units.step > LEARNED_AFTER]
+    wide = units.pivot_table(index=["run_id", "step"], columns="position", values="phase_kept", aggfunc="first")
+    angle = 2 * np.pi * (wide[2] - wide[1]).to_numpy(dtype=float)
+    return float(np.angle(np.mean(np.exp(1j * angle))) / (2 * np.pi) % 1.0)
+
+
+def weakest_piece(tables: dict, row: pd.Series) -> float:
+    """The lowest, over the pieces after the cut, of the piece's Ubar over the last WINDOW steps (all runs)."""
+    curves = M.piece_curves(_units_of(tables, row))
+    late = curves[curves.step > curves.step.max() - WINDOW]
+    by_piece = late.groupby("piece").ubar.mean()
+    if len(by_piece) < 2:
+        raise ValueError("the runs record no cut into pieces")
+    return float(by_piece.min())
+
+
+def _of(experiment: str, value: Callable[[dict, pd.Series], float], **match):
+    """A measuring function: ``value`` of the first condition of ``experiment`` matching ``match``."""
+    def measure(tables: dict) -> Measured | str:
+        found = _one(tables, experiment, **match)
+        if isinstance(found, str):
+            return found
+        row, on = found
+        result = value(tables, row)
+        return Measured(result, on) if math.isfinite(result) else f"not defined on {on}"
+    return measure
+
+
+def _versus(experiment: str, value: Callable[[dict, pd.Series], float], first: dict, second: dict,
+            ratio: bool = False):
+    """A measuring function: ``value`` of the condition ``first`` minus (``ratio``: over) that of ``second``."""
+    def measure(tables: dict) -> Measured | str:
+        a, b = _one(tables, experiment, **first), _one(tables, experiment, **second)
+        for found in (a, b):
+            if isinstance(found, str):
+                return found
+        x, y = value(tables, a[0]), value(tables, b[0])
+        result = (x / y if y > 0 else math.nan) if ratio else x - y
+        on = f"{a[1]} ({x:.3g}) {'over' if ratio else 'minus'} {b[1].split(': ', 1)[1]} ({y:.3g})"
+        return Measured(result, on) if math.isfinite(result) else f"not defined on {on}"
+    return measure
+
+
+def _extreme_noise(tables: dict, **match) -> float | str:
+    """The highest noise level of S4's conditions (on ``match``'s ground)."""
+    found = _conditions(tables, "S4", **match)
+    return found if isinstance(found, str) else float(found.noise.max())
+
+
+def _noise_versus(value, first: dict, second: dict, noisy_first: bool = True, noisy_second: bool = True,
+                  ratio: bool = False):
+    """``_versus`` on S4 at its highest noise level (``noisy_*`` False: that side noiseless)."""
+    def measure(tables: dict) -> Measured | str:
+        sigma = _extreme_noise(tables, environment=first.get("environment", "uniform"))
+        if isinstance(sigma, str):
+            return sigma
+        if not sigma > 0:
+            return "S4 has no noisy condition"
+        a = {**first, "noise": sigma if noisy_first else 0.0}
+        b = {**second, "noise": sigma if noisy_second else 0.0}
+        return _versus("S4", value, a, b, ratio)(tables)
+    return measure
+
+
+def _across(experiment: str, value: Callable[[dict, pd.Series], float], column: str, combine, **match):
+    """A measuring function: ``combine(levels, values)`` of ``value`` over the conditions of ``experiment`` matching
+    ``match``, by their ``column`` (sorted; conditions without a value left out)."""
+    def measure(tables: dict) -> Measured | str:
+        found = _conditions(tables, experiment, **match)
+        if isinstance(found, str):
+            return found
+        pairs = sorted((float(row[column]), value(tables, row)) for _, row in found.iterrows())
+        pairs = [(level, v) for level, v in pairs if math.isfinite(v)]
+        if len(pairs) < 2:
+            return f"{experiment} has fewer than two {column} levels with a value"
+        levels, values = (np.array(x) for x in zip(*pairs))
+        result = float(combine(levels, values))
+        on = f"{experiment}: {column} " + ", ".join(f"{_text(level)}: {v:.3g}" for level, v in pairs)
+        return Measured(result, on) if math.isfinite(result) else f"not defined on {on}"
+    return measure
+
+
+def _paired(value: Callable[[dict, pd.Series], float]):
+    """S9: the fraction of sizes N at which the small step size's ``value`` exceeds the default step size's."""
+    def measure(tables: dict) -> Measured | str:
+        found = _conditions(tables, "S9", learner="thermal")
+        if isinstance(found, str):
+            return found
+        sizes = sorted(set(found.step_size.astype(float)))
+        if len(sizes) < 2:
+            return "S9 has one step size"
+        small, large = sizes[0], sizes[-1]
+        wins, compared = 0, []
+        for n in sorted(set(found.n_units)):
+            rows = found[found.n_units == n]
+            a = rows[np.isclose(rows.step_size.astype(float), small)]
+            b = rows[np.isclose(rows.step_size.astype(float), large)]
+            if a.empty or b.empty:
+                continue
+            x, y = value(tables, a.iloc[0]), value(tables, b.iloc[0])
+            if math.isfinite(x) and math.isfinite(y):
+                wins += x > y
+                compared.append(f"N={n}: {x:.3g} vs {y:.3g}")
+        if not compared:
+            return "S9 has no size N with a value at both step sizes"
+        return Measured(wins / len(compared), f"S9 at step size {small:g} vs {large:g}: " + ", ".join(compared))
+    return measure
+
+
+def _spearman(levels: np.ndarray, values: np.ndarray) -> float:
+    return float(pd.Series(levels).corr(pd.Series(values), method="spearman"))
+
+
+def _largest_two(levels: np.ndarray, values: np.ndarray) -> float:
+    """The relative difference of the values at the two largest levels: |v[-1] / v[-2] - 1|."""
+    return abs(values[-1] / values[-2] - 1) if values[-2] > 0 else math.nan
+
+
+def _plateau_u_eq(tables: dict, row: pd.Series) -> float:
+    return float(row.u_eq) if bool(row.get("plateau", False)) else math.nan
+
+
+def _steps_reached(tables: dict, row: pd.Series) -> float:
+    return float(row.steps_to_threshold) if bool(row.get("plateau", False)) else math.nan
+
+
+def _missed(tables: dict, row: pd.Series) -> float:
+    return 1.0 - float(row.reached_fraction) if bool(row.get("plateau", False)) else math.nan
+
+
+def _k0(tables: dict, row: pd.Series) -> float:
+    return float(row.k_0) if bool(row.get("plateau", False)) else math.nan
+
+
+def _log2_ratio(value: Callable[[dict, pd.Series], float], first: tuple[str, dict], second: tuple[str, dict]):
+    """|log2| of ``value`` of one condition over another's: 0 when equal, 1 when a factor of 2 apart."""
+    def measure(tables: dict) -> Measured | str:
+        a, b = _one(tables, first[0], **first[1]), _one(tables, second[0], **second[1])
+        for found in (a, b):
+            if isinstance(found, str):
+                return found
+        x, y = value(tables, a[0]), value(tables, b[0])
+        result = abs(math.log2(x / y)) if x > 0 and y > 0 else math.nan
+        on = f"{a[1]} ({x:.3g}) against {b[1]} ({y:.3g})"
+        return Measured(result, on) if math.isfinite(result) else f"not defined on {on}"
+    return measure
+
+
+def _between(value: Callable[[dict, pd.Series], float], first: tuple[str, dict], second: tuple[str, dict]):
+    """``value`` of a condition of one experiment minus that of a condition of another."""
+    def measure(tables: dict) -> Measured | str:
+        a, b = _one(tables, first[0], **first[1]), _one(tables, second[0], **second[1])
+        for found in (a, b):
+            if isinstance(found, str):
+                return found
+        x, y = value(tables, a[0]), value(tables, b[0])
+        return Measured(x - y, f"{a[1]} ({x:.3g}) minus {b[1]} ({y:.3g})")
+    return measure
+
+
+def _s1_mean_of_peak(tables: dict) -> Measured | str:
+    found, curve = _one(tables, "S1"), scan_curve(tables, 2)
+    for part in (found, curve):
+        if isinstance(part, str):
+            return part
+    peak = float(curve[0].ubar.max())
+    mean = distribution("mean")(tables, found[0])
+    if not peak > 0 or not math.isfinite(mean):
+        return f"not defined on {found[1]} and {curve[1]}"
+    return Measured(mean / peak, f"{found[1]}: mean {mean:.3g} over the peak {peak:.3g} of {curve[1]}")
+
+
+# --- 3-unit landscapes ------------------------------------------------------------------------------------------
+
+
+def landscape(tables: dict, name: str) -> tuple[np.ndarray, np.ndarray, str] | str:
+    """The complete 3-unit scan ``name`` as a grid ``ubar[i, j]`` at dphi_2 = axis[i], dphi_3 = axis[j]."""
+    scans = _table(tables, "scans")
+    if scans.empty or "scan" not in scans:
+        return "the suite has no scan results"
+    points = scans[scans.scan == name]
+    if points.empty or "dphi_3" not in points:
+        return f"the suite has no 3-unit scan {name}"
+    grid = points.pivot_table(index="dphi_2", columns="dphi_3", values="ubar", aggfunc="first")
+    if grid.isna().any().any() or grid.shape[0] != grid.shape[1] or grid.shape[0] < 3:
+        return f"scan {name} is not a complete square grid yet"
+    return grid.to_numpy(dtype=float), grid.index.to_numpy(dtype=float), f"scan {name} ({grid.size} points)"
+
+
+def peaks(grid: np.ndarray, prominence: float = PROMINENCE) -> list[tuple[tuple[int, int], float]]:
+    """The maxima of a periodic landscape (8 neighbours, wrapping at both edges) and their prominences, those at
+    least ``prominence`` times its range: cells are added from the highest down, each joining its added neighbours'
+    groups; where two groups meet, the one with the lower peak ends, its prominence its peak minus the meeting
+    height. The global maximum's prominence is the range."""
+    n, m = grid.shape
+    order = np.argsort(-grid, axis=None, kind="stable")
+    parent: dict[int, int] = {}
+    top: dict[int, int] = {}
+    found: list[tuple[tuple[int, int], float]] = []
+
+    def root(cell: int) -> int:
+        while parent[cell] != cell:
+            parent[cell] = parent[parent[cell]]
+            cell = parent[cell]
+        return cell
+
+    flat = grid.ravel()
+    for cell in order:
+        cell = int(cell)
+        parent[cell], top[cell] = cell, cell
+        i, j = divmod(cell, m)
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                other = ((i + di) % n) * m + (j + dj) % m
+                if other == cell or other not in parent:
+                    continue
+                a, b = root(cell), root(other)
+                if a == b:
+                    continue
+                low, high = (a, b) if flat[top[a]] < flat[top[b]] else (b, a)
+                if top[low] != cell:
+                    found.append((divmod(top[low], m), float(flat[top[low]] - flat[cell])))
+                parent[low] = high
+    best = int(order[0])
+    found.append((divmod(best, m), float(np.ptp(grid))))
+    span = float(np.ptp(grid))
+    return [(tuple(int(x) for x in at), height) for at, height in found if span > 0 and height >= prominence * span]
+
+
+def abruptness(grid: np.ndarray) -> float:
+    """The share of a periodic landscape's total variation (the sum of |dU| between neighbours along both axes)
+    carried by its largest tenth of steps: about 0.25 on a smooth landscape, towards 1 on plateaus with sharp edges."""
+    steps = np.abs(np.concatenate([(np.roll(grid, -1, 0) - grid).ravel(), (np.roll(grid, -1, 1) - grid).ravel()]))
+    total = steps.sum()
+    if not total > 0:
+        return math.nan
+    largest = np.sort(steps)[::-1][:max(1, len(steps) // 10)]
+    return float(largest.sum() / total)
+
+
+def _landscape_measure(name: str, quantity: Callable[[np.ndarray, np.ndarray], float]):
+    def measure(tables: dict) -> Measured | str:
+        found = landscape(tables, name)
+        if isinstance(found, str):
+            return found
+        grid, axis, on = found
+        value = quantity(grid, axis)
+        return Measured(value, on) if math.isfinite(value) else f"not defined on {on}"
+    return measure
+
+
+def _at(grid: np.ndarray, axis: np.ndarray, dphi_2: float, dphi_3: float) -> float:
+    """The grid's value at the point nearest (dphi_2, dphi_3) if it lies within half a grid step of it."""
+    step = 1.0 / len(axis)
+    distance = np.abs((axis - np.array([[dphi_2], [dphi_3]]) + 0.5) % 1.0 - 0.5)
+    i, j = (int(np.argmin(row)) for row in distance)
+    if distance[0, i] > step / 2 + 1e-9 or distance[1, j] > step / 2 + 1e-9:
+        return math.nan
+    return float(grid[i, j])
+
+
+def _diagonal_distance(grid: np.ndarray, axis: np.ndarray) -> float:
+    """How far the landscape's maximum is from dphi_2 = dphi_3, in cycles on the circle."""
+    i, j = np.unravel_index(int(np.argmax(grid)), grid.shape)
+    d = abs(axis[i] - axis[j]) % 1.0
+    return float(min(d, 1.0 - d))
+
+
+def _two_landscapes(first: str, second: str, quantity: Callable[[np.ndarray, np.ndarray], float], ratio=False):
+    """``quantity`` of scan ``first`` against that of ``second`` (minus, or over); with ``quantity`` None, the
+    Pearson correlation of the two grids."""
+    def measure(tables: dict) -> Measured | str:
+        a, b = landscape(tables, first), landscape(tables, second)
+        for found in (a, b):
+            if isinstance(found, str):
+                return found
+        if a[0].shape != b[0].shape:
+            return f"{a[2]} and {b[2]} have different grids"
+        if quantity is None:
+            value = float(np.corrcoef(a[0].ravel(), b[0].ravel())[0, 1])
+            return Measured(value, f"{a[2]} against {b[2]}")
+        x, y = quantity(a[0], a[1]), quantity(b[0], b[1])
+        return Measured(x - y, f"{a[2]} ({x:.3g}) minus {b[2]} ({y:.3g})")
+    return measure
+
+
+def _ground_spread(tables: dict) -> Measured | str:
+    """The std over the S3-ground-* scans (one 3-unit landscape per friction field) at (0.4, 0.2) minus that at
+    (0.4, 0.8): where the paper's track made the robot stop in places and where it did not."""
+    scans = _table(tables, "scans")
+    if scans.empty or "scan" not in scans:
+        return "the suite has no scan results"
+    names = sorted(name for name in scans.scan.unique() if str(name).startswith("S3-ground-"))
+    grids = [landscape(tables, name) for name in names]
+    grids = [g for g in grids if not isinstance(g, str)]
+    if len(grids) < 2:
+        return "the suite has fewer than two complete S3-ground-* scans (3-unit landscapes on varied grounds)"
+    fragile = np.std([_at(g, axis, 0.4, 0.2) for g, axis, _ in grids])
+    robust = np.std([_at(g, axis, 0.4, 0.8) for g, axis, _ in grids])
+    return Measured(float(fragile - robust), f"{len(grids)} S3-ground scans: std {fragile:.3g} at (0.4, 0.2), "
+                                              f"{robust:.3g} at (0.4, 0.8)")
+
+
+def _hardware_gait(tables: dict) -> Measured | str:
+    return _landscape_measure("S3", lambda g, axis: _at(g, axis, 0.4, 0.8))(tables)
+
+
+T, F = {"learner": "thermal"}, {"learner": "flaky"}
+UNIFORM = {"environment": "uniform"}
+FIELD = {"environment": "friction-field"}
+
 CLAIMS: tuple[Claim, ...] = (
+    # S2: the 2-unit curve (Fig. 1G)
     Claim("scan-2-peak", "S2", "The 2-unit scan's forward maximum is about 4.5 mm/cycle.", 4.5, "mm/cycle",
-          _curve_measure(lambda d, u: float(np.max(u))), 1.0, "within"),
+          _curve_measure(lambda d, u: float(np.max(u))), 1.0, "within", "Fig. 1G"),
     Claim("scan-2-peak-at", "S2", "The 2-unit scan peaks at a phase difference of about 0.4 (about alpha: a "
-          "peristaltic wave).", 0.4, "cycles", _curve_measure(lambda d, u: float(d[np.argmax(u)])), 0.1, "phase"),
-    Claim("scan-2-trough", "S2", "The model's 2-unit curve is about -4.5 mm/cycle at its minimum.", -4.5, "mm/cycle",
-          _curve_measure(lambda d, u: float(np.min(u))), 1.0, "within"),
+          "peristaltic wave).", 0.4, "cycles", _curve_measure(lambda d, u: float(d[np.argmax(u)])), 0.1, "phase",
+          "Fig. 1G; SI Fig. S2"),
+    Claim("scan-2-trough", "S2", "The model's 2-unit curve is about -4.5 mm/cycle at its minimum (symmetric "
+          "forward and backward motion).", -4.5, "mm/cycle", _curve_measure(lambda d, u: float(np.min(u))), 1.0,
+          "within", "Fig. 1G"),
     Claim("scan-2-trough-at", "S2", "The model's 2-unit curve has its minimum near a phase difference of 0.6.", 0.6,
-          "cycles", _curve_measure(lambda d, u: float(d[np.argmin(u)])), 0.1, "phase"),
+          "cycles", _curve_measure(lambda d, u: float(d[np.argmin(u)])), 0.1, "phase", "Fig. 1G"),
     Claim("scan-2-antisymmetric", "S2", "The model's 2-unit curve is about antisymmetric: U(dphi) = -U(1 - dphi) "
           "(measured: rms of (U(d) + U(1-d))/2 over max |U|).", 0.0, "", _curve_measure(antisymmetry), 0.15,
-          "at most"),
+          "at most", "Fig. 1G"),
     Claim("scan-2-one-optimum", "S2", "The model's 2-unit curve has no significant local optima (measured: maxima "
           f"standing out by {PROMINENCE:.0%} of its range: 1 is the peak alone).", 1, "",
-          _curve_measure(lambda d, u: float(len(local_maxima(u)))), 0.0, "within"),
+          _curve_measure(lambda d, u: float(len(local_maxima(u)))), 0.0, "within", "Fig. 1G, Results of Two Units"),
+    # S1: 2 units learning (Fig. 1D-F)
+    Claim("S1-ridge", "S1", f"After about {LEARNED_AFTER} steps the 2-unit simulations' Ubar is distributed around "
+          f"4.5 mm/cycle (measured: the ridge of the per-step trial Ubar after step {LEARNED_AFTER}, the mode of a "
+          f"kernel density of bandwidth {M.RIDGE_BANDWIDTH:g} mm/cycle).", 4.5, "mm/cycle",
+          _of("S1", distribution("ridge")), 0.5, "within", "Fig. 1F"),
+    Claim("S1-around-optimum", "S1", "... with random perturbations around the optimal behaviour (measured: the mean "
+          "of that distribution over the 2-unit scan's peak).", 0.75, "of the peak", _s1_mean_of_peak, 0.0,
+          "at least", "Fig. 1F, Results of Two Units"),
     Claim("S1-level", "S1", "2-unit Thermal learning reaches about 4.5 mm/cycle (measured: U_eq of the fit to the "
-          "seed-averaged curve).", 4.5, "mm/cycle", _metric_measure("u_eq", 2, need_plateau=True), 1.0, "within"),
-    Claim("S1-speed", "S1", f"... within about {LEARNED_AFTER} learning steps (measured: mean steps to "
-          f"{M.THRESHOLD:g} U_eq).", LEARNED_AFTER, "steps", _metric_measure("steps_to_threshold", 2, True), 10.0,
-          "at most"),
-    Claim("S1-every-run", "S1", f"... in every one of 112 simulations (measured: the fraction of runs reaching "
-          f"{M.THRESHOLD:g} U_eq).", 1.0, "of runs", _metric_measure("reached_fraction", 2, True), 0.0,
-          "at least"),
+          "seed-averaged curve).", 4.5, "mm/cycle", _metric_measure("u_eq", 2, need_plateau=True), 1.0, "within",
+          "Fig. 1E-F"),
+    Claim("S1-by-step-20", "S1", "The robot reaches its fastest speed after about 20 learning steps (measured: the "
+          "seed-averaged Ubar over steps 18-22 over U_eq).", 0.8, "of U_eq", _of("S1", learned_by(20)), 0.0,
+          "at least", "Fig. 1D-F"),
     Claim("S1-unimodal", "S1", f"The distribution of Ubar over seeds is unimodal after about {LEARNED_AFTER} steps "
-          "(measured: Sarle's bimodality coefficient, above 5/9 bimodal).", BIMODAL, "", _unimodal_after, 0.0,
-          "at most"),
-    Claim("T-acceptance", "calibration", "A noiseless 3-unit Thermal simulation accepts about 25% of trials once "
-          "learned (measured: mean acceptance over the last 10% of steps).", 0.25, "of trials",
-          _metric_measure("acceptance_final", 3), 0.1, "within"),
+          "(measured: Sarle's bimodality coefficient of each run's mean Ubar, above 5/9 bimodal).", BIMODAL, "",
+          _unimodal_after, 0.0, "at most", "Fig. 1F"),
+    Claim("S1-gait", "S1", "The learned phase difference is about 0.4, the scan's optimum (measured: circular mean "
+          f"of the kept phi_2 - phi_1 after step {LEARNED_AFTER}).", 0.4, "cycles", _of("S1", learned_phase_difference),
+          0.1, "phase", "Fig. 1D, Results of Two Units"),
+    # S3: the 3-unit landscape (Fig. 2C)
+    Claim("S3-maxima", "S3", f"The 3-unit landscape has multiple maxima (measured: maxima standing out by "
+          f"{PROMINENCE:.0%} of its range).", 2, "maxima", _landscape_measure("S3", lambda g, a: float(len(peaks(g)))),
+          0.0, "at least", "Fig. 2C"),
+    # S4: 3 units, Thermal against Flaky, noise (Fig. 2A-B, 2G-H; SI Fig. S5)
+    Claim("T-acceptance", "S4", "A noiseless 3-unit Thermal simulation accepts about 25% of trials once learned "
+          "(measured: mean acceptance over the last 10% of steps).", 0.25, "of trials",
+          _metric_measure("acceptance_final", 3), 0.1, "within", "Fig. 2B"),
+    Claim("S4-thermal-improves", "S4", "3-unit Thermal simulations improve Ubar over the first about 50 steps and "
+          "stabilise at a positive mean (measured: seed-averaged Ubar at steps 45-55 minus at steps 0-5).", 0.0,
+          "mm/cycle", _of("S4", improvement, noise=0.0, **T, **UNIFORM), 0.0, "at least", "Fig. 2A"),
+    Claim("S4-flaky-level", "S4", "With 3 units, Flaky reaches about 4 mm/cycle (measured: final Ubar, noiseless).",
+          4.0, "mm/cycle", _of("S4", final_ubar, noise=0.0, **F, **UNIFORM), 1.0, "within", "Fig. 2G"),
+    Claim("S4-flaky-acceptance", "S4", "Flaky accepts about 60% of trials (measured: mean acceptance, noiseless).",
+          0.6, "of trials", _of("S4", metric("acceptance_mean"), noise=0.0, **F, **UNIFORM), 0.1, "within",
+          "Fig. 2H"),
+    Claim("S4-flaky-steady", "S4", "... independent of the learning step (measured: range of its acceptance over "
+          f"blocks of 50 steps after step {LEARNED_AFTER}).", 0.0, "", _of("S4", acceptance_spread, noise=0.0, **F,
+                                                                              **UNIFORM), 0.1, "at most", "Fig. 2H"),
+    Claim("S4-flaky-noise-free", "S4", "Flaky's acceptance is not affected by the noise level (measured: range of "
+          "its mean acceptance over the noise levels).", 0.0, "", _across("S4", metric("acceptance_mean"), "noise",
+                                                                          lambda x, v: np.ptp(v), **F, **UNIFORM),
+          0.1, "at most", "SI Fig. S5C"),
+    Claim("S4-thermal-noise-acceptance", "S4", "Thermal's acceptance falls with noise (measured: its mean "
+          "acceptance at the highest noise level minus noiseless).", -0.1, "", _noise_versus(
+              metric("acceptance_mean"), {**T, **UNIFORM}, {**T, **UNIFORM}, noisy_second=False), 0.0, "at most",
+          "SI Fig. S5C; A More Robust Learning Strategy"),
+    Claim("S4-thermal-noise-ubar", "S4", "Noise reduces Thermal's ability to learn (measured: its final Ubar at the "
+          "highest noise level minus noiseless).", 0.0, "mm/cycle", _noise_versus(
+              final_ubar, {**T, **UNIFORM}, {**T, **UNIFORM}, noisy_second=False), 0.0, "at most",
+          "SI Fig. S5A-B"),
+    Claim("S4-thermal-memory", "S4", "Under noise, Thermal's memory overestimates the velocity the units now reach "
+          "(measured: remembered minus true trial Ubar, highest noise level minus noiseless).", 0.0, "mm/cycle",
+          _noise_versus(memory_excess, {**T, **UNIFORM}, {**T, **UNIFORM}, noisy_second=False), 0.0, "at least",
+          "A More Robust Learning Strategy"),
+    Claim("S4-flaky-noise", "S4", "Under noise Flaky is at least as fast as Thermal (measured: final Ubar, Flaky "
+          "minus Thermal, highest noise level).", 0.0, "mm/cycle",
+          _noise_versus(final_ubar, {**F, **UNIFORM}, {**T, **UNIFORM}), 0.0, "at least",
+          "Fig. 2A, 2G; SI Fig. S5"),
+    Claim("S4-flaky-field", "S4", "On a ground whose friction varies, with noise, Flaky is at least as fast as "
+          "Thermal (measured: final Ubar, Flaky minus Thermal, friction field, highest noise level).", 0.0,
+          "mm/cycle", _noise_versus(final_ubar, {**F, **FIELD}, {**T, **FIELD}), 0.0, "at least",
+          "Fig. 2A, 2G (experiments); A More Robust Learning Strategy"),
+    # S5: friction drop (SI Fig. S6)
+    Claim("S5-flaky-after", "S5", "After a sudden change of friction Flaky re-adapts and Thermal does not "
+          "(measured: Ubar from the event on, Flaky minus Thermal).", 0.0, "mm/cycle",
+          _versus("S5", ubar_after_event, F, T), 0.0, "at least", "SI Fig. S6"),
+    Claim("S5-thermal-stops", "S5", "After the change Thermal stops accepting (measured: its acceptance over the "
+          f"{WINDOW} steps after the event over the {WINDOW} before).", 0.5, "", _of("S5", acceptance_ratio, **T),
+          0.0, "at most", "SI Fig. S6; A More Robust Learning Strategy"),
+    Claim("S5-flaky-accepts", "S5", "Flaky keeps accepting after the change (measured: its acceptance over the "
+          f"{WINDOW} steps after the event minus the {WINDOW} before).", 0.0, "", _of("S5", acceptance_change, **F),
+          0.1, "within", "SI Fig. S6; Fig. 2H"),
+    # S6: damage (Fig. 3; SI Figs. S4, S7)
+    Claim("S6-flaky-after", "S6", "After the damage Flaky adapts and Thermal gets stuck (measured: Ubar from the "
+          "damage on, Flaky minus Thermal).", 0.0, "mm/cycle", _versus("S6", ubar_after_event, F, T), 0.0,
+          "at least", "Fig. 3E-F; SI Fig. S7"),
+    Claim("S6-thermal-stuck", "S6", "Thermal gets stuck at a phase after the damage (measured: its acceptance over "
+          f"the {WINDOW} steps after the damage over the {WINDOW} before).", 0.5, "", _of("S6", acceptance_ratio, **T),
+          0.0, "at most", "Fig. 3E; SI Fig. S7"),
+    Claim("S6-landscape", "S6", "The damage dramatically alters the behaviours the robot can exhibit (measured: "
+          "correlation of the 3-unit landscape before and after it).", 0.5, "", _two_landscapes("S3", "S6-damaged",
+                                                                                               None), 0.0,
+          "at most", "Fig. 3C-D; SI Fig. S4"),
+    # S7: higher friction (SI Fig. S3E-F)
+    Claim("S7-abrupt", "S7", "At higher friction the landscape changes abruptly with phase: plateaus with sharp "
+          "edges (measured: abruptness, the share of its variation in its largest tenth of steps, at 1.5x friction "
+          "minus at 1x).", 0.0, "", _two_landscapes("S7", "S3", lambda g, a: abruptness(g)), 0.0, "at least",
+          "SI Fig. S3E-F; A More Robust Learning Strategy"),
+    Claim("S7-flaky-resets", "S7", "... where Flaky's memory resets almost at once and it accepts nearly any phase "
+          "(measured: Flaky's mean acceptance at 1.5x friction minus at 1x).", 0.0, "",
+          _versus("S7", metric("acceptance_mean"), {**F, "environment": "friction-1.5"},
+                  {**F, "environment": "friction-1"}), 0.0, "at least", "A More Robust Learning Strategy"),
+    Claim("S7-flaky-struggles", "S7", "... so Flaky starts to have problems (measured: Flaky's final Ubar as a "
+          "fraction of its landscape's best, 1.5x friction minus 1x).", 0.0, "",
+          _versus("S7", metric("learned_fraction"), {**F, "environment": "friction-1.5"},
+                  {**F, "environment": "friction-1"}), 0.0, "at most", "A More Robust Learning Strategy"),
+    # S8: 7 units (Fig. 4A-B)
+    Claim("S8-level", "S8", "With 7 units the average velocity is about 2.5 mm/cycle (measured: final Ubar).", 2.5,
+          "mm/cycle", _of("S8", final_ubar, n_units=7, **T), 1.0, "within", "Fig. 4B"),
+    Claim("S8-below-3", "S8", "... lower than with 3 units (measured: final Ubar, 7 units minus 3, Thermal, "
+          "noiseless).", 0.0, "mm/cycle", _between(final_ubar, ("S8", {"n_units": 7, **T}),
+                                                  ("S4", {"noise": 0.0, **T, **UNIFORM})), 0.0, "at most", "Fig. 4B"),
+    Claim("S8-rate", "S8", "... learnt within a comparable number of steps (measured: |log2| of the fit's k_0, 7 "
+          "units over 3).", 0.0, "", _log2_ratio(_k0, ("S8", {"n_units": 7, **T}),
+                                                  ("S4", {"noise": 0.0, **T, **UNIFORM})), 1.0, "at most", "Fig. 4B"),
+    Claim("S8-peaks", "S8", "The 7-unit robot occasionally reaches about 4 mm/cycle but cannot maintain it "
+          f"(measured: the 99th percentile of per-step trial Ubar after step {LEARNED_AFTER}).", 4.0, "mm/cycle",
+          _of("S8", distribution("q99"), n_units=7, **T), 1.0, "within", "Fig. 4B"),
+    # S9: scaling (Fig. 4C-D)
+    Claim("S9-falls", "S9", "U_eq decreases with the number of units (measured: Spearman correlation of U_eq with "
+          "N, step size 0.1).", -0.8, "", _across("S9", _plateau_u_eq, "n_units", _spearman, step_size=0.1, **T), 0.0,
+          "at most", "Fig. 4C"),
+    Claim("S9-levels-off", "S9", "... and levels off (measured: relative difference of U_eq at the two largest N).",
+          0.0, "", _across("S9", _plateau_u_eq, "n_units", _largest_two, step_size=0.1, **T), 0.2, "at most",
+          "Fig. 4C"),
+    Claim("S9-asymptote", "S9", "... near 1.7 mm/cycle (measured: U_eq at the largest N).", 1.7, "mm/cycle",
+          _across("S9", _plateau_u_eq, "n_units", lambda x, v: v[-1], step_size=0.1, **T), 0.5, "within", "Fig. 4C"),
+    Claim("S9-rate-flat", "S9", f"The number of units does not affect the rate of learning (measured: largest over "
+          f"smallest mean steps to {M.THRESHOLD:g} U_eq over N).", 1.0, "", _across(
+              "S9", _steps_reached, "n_units", lambda x, v: v.max() / v.min() if v.min() > 0 else math.nan,
+              step_size=0.1, **T), 1.0, "at most", "Fig. 4D"),
+    Claim("S9-35-steps", "S9", f"On average the units need about 35 steps to reach {M.THRESHOLD:g} U_eq (measured: "
+          "mean over N of the mean steps, as Fig. 4D counts them).", 35, "steps", _across(
+              "S9", _steps_reached, "n_units", lambda x, v: v.mean(), step_size=0.1, **T), 15.0, "within",
+          "Fig. 4D"),
+    Claim("S9-small-step-higher", "S9", "A smaller step size gives a higher U_eq (measured: fraction of the sizes N "
+          "where U_eq at 0.025 exceeds U_eq at 0.1).", 1.0, "of sizes", _paired(_plateau_u_eq), 0.2,
+          "at least", "Fig. 4C"),
+    Claim("S9-small-step-slower", "S9", "... at the cost of learning rate (measured: fraction of the sizes N where "
+          f"the steps to {M.THRESHOLD:g} U_eq at 0.025 exceed those at 0.1).", 1.0, "of sizes",
+          _paired(_steps_reached), 0.2, "at least", "Fig. 4D"),
+    Claim("S9-small-step-misses", "S9", f"At step size 0.025 some runs do not reach {M.THRESHOLD:g} U_eq (measured: "
+          "the largest fraction of runs that do not, over N).", 0.01, "of runs",
+          _across("S9", _missed, "n_units", lambda x, v: v.max(), step_size=0.025, **T), 0.0, "at least",
+          "Fig. 4D; SI Fig. S8B"),
+    # S10, S11: shuffle and cut (Conclusion; Movie S5)
+    Claim("S10-relearns", "S10", "Reordered units keep their ability to learn (measured: Flaky's Ubar over the last "
+          f"{WINDOW} steps over that of the {WINDOW} before the shuffle).", 0.8, "", _of("S10", kept_level, **F), 0.0,
+          "at least", "Conclusion; Movie S5 (experiments)"),
+    Claim("S11-both-learn", "S11", "Cut in two, both parts keep learning to move (measured: the lower of the two "
+          f"pieces' Ubar over the last {WINDOW} steps, Flaky).", 0.5, "mm/cycle", _of("S11", weakest_piece, **F), 0.0,
+          "at least", "Conclusion"),
+    # findings of the paper's experiments: the hardware, modelled by morphbench's options
     Claim("hw-trough", "S2 (hardware)", "With pump vibration (the hardware), the 2-unit curve is about -3 mm/cycle "
           "at its minimum.", -3.0, "mm/cycle", _curve_measure(lambda d, u: float(np.min(u)), vibration=True), 1.0,
-          "within"),
+          "within", "Fig. 1G-H"),
     Claim("hw-local-max", "S2 (hardware)", "With pump vibration (the hardware), the 2-unit curve has a local maximum "
-          "of about 1 mm/cycle ...", 1.0, "mm/cycle", _second_maximum(1), 0.5, "within"),
+          "of about 1 mm/cycle ...", 1.0, "mm/cycle", _second_maximum(1), 0.5, "within", "Fig. 1F-H"),
     Claim("hw-local-max-at", "S2 (hardware)", "... near a phase difference of 0.9.", 0.9, "cycles", _second_maximum(0),
-          0.1, "phase"),
+          0.1, "phase", "Fig. 1G-H"),
+    Claim("hw-3-gait", "S3 (hardware)", "The 3-unit gait (0.4, 0.8) is a maximum of about 4.5 mm/cycle (measured: "
+          "the 3-unit landscape there).", 4.5, "mm/cycle", _hardware_gait, 1.0, "within", "Fig. 2D-F"),
+    Claim("hw-3-track", "S3 (hardware)", "The gait (0.4, 0.2) depends on where the robot is on the track, (0.4, 0.8) "
+          "does not (measured: std over landscapes on varied grounds, there minus at (0.4, 0.8)).", 0.0, "mm/cycle",
+          _ground_spread, 0.0, "at least", "Fig. 2E-F; SI Figs. S3, S4A"),
+    Claim("hw-damaged-optimum", "S6 (hardware)", "After the damage the global optimum has units 2 and 3 actuating "
+          "together (measured: distance of the damaged landscape's maximum from dphi_2 = dphi_3).", 0.0, "cycles",
+          _landscape_measure("S6-damaged", _diagonal_distance), 0.1, "at most", "Fig. 3D; Adaptivity to Damage"),
 )
-"""Section 3 of the spec, statement by statement."""
+"""The paper's findings, statement by statement, in the order of docs/paper.md."""

@@ -18,6 +18,11 @@ Per condition (a run's configuration without its seed), over its seeds:
   event), ``recovery_steps`` (mean and std over the runs that do) and ``recovered_fraction`` (``recovery_steps``);
   ``event_recovery`` gives the same for every event, with Ubar before, just after and at the end of its stretch.
 
+As the paper measures them (docs/paper.md): ``step_distribution`` (Fig. 1F: the per-step Ubar of every run after a
+step, its ridge, the mode of a Gaussian kernel density of bandwidth ``RIDGE_BANDWIDTH``, and its mean),
+``equilibrium`` (Fig. 4C-D: U_eq of the fit to the seed-averaged curve, steps to ``THRESHOLD`` x U_eq and the fraction
+of runs that reach it) and ``memory_ubar`` (Ubar of the velocities the learners remember, beside the trial one).
+
 For the figures: ``ubar_distribution`` (the fraction of a condition's runs in each Ubar bin at each step),
 ``piece_curves`` (Ubar of each piece of a cut assembly, from the units table) and ``phase_differences`` (the phase
 differences a run tried, by position, as a landscape's axes).
@@ -47,6 +52,14 @@ QUANTILES = (0.1, 0.25, 0.5, 0.75, 0.9)
 _GOLDEN = (math.sqrt(5) - 1) / 2
 RECOVERY_FRACTION = 0.8
 RECOVERY_WINDOW = 20
+RIDGE_BANDWIDTH = 0.25
+"""mm/cycle: the kernel's standard deviation for the ridge of a Ubar distribution (half the 0.5 mm/cycle bins of
+the report's distribution figures). On the quick suite's S1 (800 values) the ridge is 4.70, 4.60 and 4.44 mm/cycle at
+bandwidths 0.15, 0.25 and 0.5; with a few hundred values a narrower kernel can already pick a small cluster (a 4-run
+3-unit Flaky condition: -0.01 at 0.15, 3.31 at 0.25)."""
+LEARNED_AFTER = 20
+"""the learning step after which the paper calls 2-unit learning done ("the distribution stabilizes ... after about
+20 learning steps", Fig. 1F)."""
 
 
 def fit_exponential(k, u, n_grid: int = 400) -> dict[str, float]:
@@ -150,6 +163,66 @@ def curves(steps: pd.DataFrame, column: str = "ubar_true") -> pd.DataFrame:
     return table
 
 
+def ridge(values, bandwidth: float = RIDGE_BANDWIDTH) -> float:
+    """The mode of the Gaussian kernel density of ``values`` with standard deviation ``bandwidth``: where a heat map
+    of the distribution is brightest. Computed on a grid of bandwidth / 20 (values binned on it, the kernel convolved
+    over the bins), so it is exact to that grid; NaN without a finite value."""
+    x = np.asarray(values, dtype=float)
+    x = x[np.isfinite(x)]
+    if not len(x) or not bandwidth > 0:
+        return math.nan
+    width = bandwidth / 20
+    reach = int(math.ceil(4 * bandwidth / width))
+    lo = x.min() - reach * width
+    counts = np.bincount(np.round((x - lo) / width).astype(np.int64))
+    counts = np.concatenate([counts, np.zeros(reach + 1)])
+    kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) * width / bandwidth) ** 2)
+    density = np.convolve(counts, kernel, mode="same")
+    return float(lo + int(np.argmax(density)) * width)
+
+
+def step_distribution(steps: pd.DataFrame, after: int = LEARNED_AFTER, column: str = "ubar_true",
+                      bandwidth: float = RIDGE_BANDWIDTH) -> dict[str, float]:
+    """Fig. 1F's distribution of Ubar over runs and learning steps after step ``after``, of one condition's steps:
+    ``ridge`` (``ridge``), ``mean``, ``q99`` (the highest speeds it reaches now and then) and ``values`` (how many)."""
+    values = steps.loc[steps.step > after, column].to_numpy(dtype=float)
+    values = values[np.isfinite(values)]
+    if not len(values):
+        return {"ridge": math.nan, "mean": math.nan, "q99": math.nan, "values": 0}
+    return {"ridge": ridge(values, bandwidth), "mean": float(values.mean()),
+            "q99": float(np.quantile(values, 0.99)), "values": len(values)}
+
+
+def equilibrium(steps: pd.DataFrame, column: str = "ubar_true", threshold: float = THRESHOLD) -> dict[str, float]:
+    """Fig. 4C-D for one condition's steps: ``u_eq``, ``u_0``, ``k_0``, ``fit_rmse``, ``plateau`` of the fit to the
+    seed-averaged curve (``fit_exponential``); ``threshold`` (``threshold`` x U_eq, NaN without a plateau or with
+    U_eq <= 0: an extrapolated U_eq is no equilibrium), each run's first step at or above it (``steps_to_reach``):
+    ``steps_to_threshold`` (mean) and ``steps_to_threshold_std`` over the runs that reach it, as Fig. 4D counts them,
+    and ``reached_fraction``, the fraction of runs that do (NaN without a threshold)."""
+    mean_curve = steps.groupby("step")[column].mean()
+    fit = fit_exponential(mean_curve.index.to_numpy(), mean_curve.to_numpy())
+    target = threshold * fit["u_eq"] if fit["u_eq"] > 0 and fit["plateau"] else math.nan
+    per_run = [g.sort_values("step") for _, g in steps.groupby("run_id", sort=False)]
+    reach = np.array([steps_to_reach(g.step.to_numpy(), g[column].to_numpy(), target) for g in per_run])
+    return {"u_eq": fit["u_eq"], "u_0": fit["u_0"], "k_0": fit["k_0"], "fit_rmse": fit["rmse"],
+            "plateau": fit["plateau"], "threshold": target, "steps_to_threshold": _mean(reach[np.isfinite(reach)]),
+            "steps_to_threshold_std": _std(reach[np.isfinite(reach)]),
+            "reached_fraction": float(np.isfinite(reach).mean()) if len(reach) and math.isfinite(target) else math.nan}
+
+
+def memory_ubar(units: pd.DataFrame) -> pd.DataFrame:
+    """Per run and step, the mean over the living units (a finite ``u_measured``) of ``u_memory`` (``ubar_memory``,
+    what the learners remember), ``u_true`` (``ubar_true``, the trial's true speed) and ``u_measured`` (``ubar``):
+    the remembered Ubar beside the trial one. Empty for units stored before ``u_memory`` existed."""
+    columns = ["run_id", "step", "ubar_memory", "ubar_true", "ubar"]
+    if units.empty or not {"run_id", "step", "u_memory", "u_true", "u_measured"} <= set(units.columns):
+        return pd.DataFrame(columns=columns)
+    living = units[units.u_measured.notna()]
+    table = living.groupby(["run_id", "step"], sort=True).agg(ubar_memory=("u_memory", "mean"),
+                                                              ubar_true=("u_true", "mean"), ubar=("u_measured", "mean"))
+    return table.reset_index()[columns]
+
+
 def condition_metrics(steps: pd.DataFrame, runs: pd.DataFrame, scans: pd.DataFrame | None = None,
                       column: str = "ubar_true", threshold: float = THRESHOLD) -> pd.DataFrame:
     """One row per condition of ``runs`` (see the module doc); ``steps`` and ``runs`` are the store's tables."""
@@ -166,16 +239,7 @@ def condition_metrics(steps: pd.DataFrame, runs: pd.DataFrame, scans: pd.DataFra
         finals = np.array([final_value(g.step, g[column]) for g in per_run])
         row["final_ubar"] = _mean(finals)
         row["final_ubar_std"] = _std(finals)
-        mean_curve = mine.groupby("step")[column].mean()
-        fit = fit_exponential(mean_curve.index.to_numpy(), mean_curve.to_numpy())
-        row.update(u_eq=fit["u_eq"], u_0=fit["u_0"], k_0=fit["k_0"], fit_rmse=fit["rmse"], plateau=fit["plateau"])
-        # no threshold without a plateau: a U_eq extrapolated from a curve still rising is not an equilibrium
-        target = threshold * fit["u_eq"] if fit["u_eq"] > 0 and fit["plateau"] else math.nan
-        reach = np.array([steps_to_reach(g.step.to_numpy(), g[column].to_numpy(), target) for g in per_run])
-        row["threshold"] = target
-        row["steps_to_threshold"] = _mean(reach[np.isfinite(reach)])
-        row["steps_to_threshold_std"] = _std(reach[np.isfinite(reach)])
-        row["reached_fraction"] = float(np.isfinite(reach).mean()) if len(reach) and math.isfinite(target) else math.nan
+        row.update(equilibrium(mine, column, threshold))
         acceptance = mine.groupby("step").acceptance.mean()
         row["acceptance_final"] = final_value(acceptance.index, acceptance.to_numpy())
         row["acceptance_mean"] = float(acceptance[acceptance.index > 0].mean()) if len(acceptance) else math.nan

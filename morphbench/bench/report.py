@@ -519,12 +519,17 @@ def _scan_section(plan: dict, scans: pd.DataFrame, figures: Path) -> list[str]:
 def _claims_section(tables: dict[str, pd.DataFrame]) -> list[str]:
     """The paper's quantitative statements against what the tables measure (morphbench.bench.claims)."""
     lines = ["## Claims", "",
-             "The paper's quantitative statements (shared/spec/robotic-matter.md, section 3), each measured on this "
-             "suite's tables: 'holds' applies the rule to the measured value; 'not measured' says what the suite "
-             "lacks.", "",
-             "| claim | scenario | statement | paper | measured | measured on | holds if | holds |",
-             "|---|---|---|---|---|---|---|---|"]
-    for verdict in C.check(tables):
+             "The paper's findings (Oliveri et al., PNAS 2021; docs/paper.md lists each with its figure), each "
+             "measured on this suite's tables: 'holds' applies the rule to the measured value; 'not measured' says "
+             "what the suite lacks.", ""]
+    verdicts = C.check(tables)
+    held = sum(v.holds is True for v in verdicts)
+    unmeasured = sum(v.holds is None for v in verdicts)
+    lines += [f"{held} of {len(verdicts)} claims hold ({len(verdicts) - held - unmeasured} do not, {unmeasured} not "
+              "measured).", "",
+              "| claim | scenario | statement | paper | measured | measured on | holds if | holds |",
+              "|---|---|---|---|---|---|---|---|"]
+    for verdict in verdicts:
         claim, measured = verdict.claim, verdict.measured
         unit = f" {claim.unit}" if claim.unit else ""
         if measured is None:
@@ -533,7 +538,8 @@ def _claims_section(tables: dict[str, pd.DataFrame]) -> list[str]:
             value = "never" if measured.value == math.inf else _fmt(float(measured.value))
             value += unit if value not in ("-", "never") else ""
             on, holds = _cell(measured.on), "yes" if verdict.holds else "no"
-        lines.append(f"| {claim.id} | {claim.scenario} | {_cell(claim.statement)} | {_fmt(claim.paper)}{unit} | "
+        scenario = f"{claim.scenario}, {claim.source}" if claim.source else claim.scenario
+        lines.append(f"| {claim.id} | {_cell(scenario)} | {_cell(claim.statement)} | {_fmt(claim.paper)}{unit} | "
                      f"{value} | {on} | {claim.rule_text()} | {holds} |")
     return lines + [""]
 

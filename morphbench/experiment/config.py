@@ -99,7 +99,7 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path,
         raise ConfigError(source, "learner.name", "thermal, flaky, random or package.module:Class", learner)
     try:
         load_learner_class(learner)
-    except ConfigError as exc:  # it names the spec as if given by --learner: name this file's key instead
+    except ConfigError as exc:  # it names the learner as if given by --learner: name this file's key instead
         raise ConfigError(source, "learner.name", exc.expected, learner) from None
     fields = dict(
         shape=shape,

@@ -5,7 +5,10 @@ A run directory holds:
   unit 1 starts at the front; a unit keeps its number when a shuffle moves it), ``position`` (1-based, where it sits
   now, 1 = front), ``piece`` (1-based, which piece of a cut assembly it belongs to; 1 while uncut), ``phase_tried``,
   ``phase_kept`` (cycles, 0..1), ``u_measured`` (mm/cycle, what the unit's sensor reported, noise included; NaN for a
-  dead unit), ``u_true`` (mm/cycle, the unit's true displacement along its forward axis per cycle), ``accepted``
+  dead unit), ``u_true`` (mm/cycle, the unit's true displacement along its forward axis per cycle), ``u_memory``
+  (mm/cycle, the velocity the learner remembers after the step, what its next trial is compared with: Thermal's last
+  accepted measurement, Flaky's and the random baseline's last measurement, a centralized controller's measurement
+  of the unit at its kept vector; NaN for a plug-in without a ``memory``), ``accepted``
   (whether the learner kept the tried phase), ``x_m``, ``y_m`` (m, where the unit's centre is on the ground at the end
   of the step: start and end positions, 2-D trajectories), ``heading_rad`` (the direction of the unit's forward axis
   on the ground, from +x towards +y, in (-pi, pi]).
@@ -42,8 +45,8 @@ import pandas as pd
 from morphbench.files import atomic_write, replace_directory  # noqa: F401 (bench.store takes atomic_write from here)
 from morphbench.learning.controllers import is_centralized
 
-UNIT_COLUMNS = ("step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true", "accepted",
-                "x_m", "y_m", "heading_rad")
+UNIT_COLUMNS = ("step", "unit", "position", "piece", "phase_tried", "phase_kept", "u_measured", "u_true", "u_memory",
+                "accepted", "x_m", "y_m", "heading_rad")
 STEP_COLUMNS = ("step", "time_s", "ubar", "ubar_true", "acceptance", "event", "x_m", "y_m", "heading_rad", "u_heading")
 PIECE_COLUMNS = ("step", "piece", "n_units", "ubar", "ubar_true")
 FINAL_FRACTION = 0.1  # final Ubar is the mean over the last 10% of learning steps (at least one)
@@ -60,13 +63,15 @@ class RunRecords:
         self.wall_time: float | None = None
 
     def add_step(self, step, time_s, tried, kept, u_measured, u_true, accepted, position, piece, xy, heading,
-                 event="") -> None:
+                 event="", u_memory=None) -> None:
         """One learning step; the arrays are per unit, in unit order (``xy``: (n, 2) ground positions, m;
-        ``heading``: rad)."""
+        ``heading``: rad; ``u_memory``: mm/cycle, None for none kept)."""
         n = len(tried)
+        memory = np.full(n, np.nan) if u_memory is None else np.asarray(u_memory, dtype=float)
         for name, value in (("step", np.full(n, step)), ("unit", np.arange(1, n + 1)), ("position", position),
                             ("piece", piece), ("phase_tried", tried), ("phase_kept", kept),
-                            ("u_measured", u_measured), ("u_true", u_true), ("accepted", accepted),
+                            ("u_measured", u_measured), ("u_true", u_true), ("u_memory", memory),
+                            ("accepted", accepted),
                             ("x_m", xy[:, 0]), ("y_m", xy[:, 1]), ("heading_rad", heading)):
             self._units[name].append(np.asarray(value))
         self._steps["step"].append(step)

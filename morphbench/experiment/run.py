@@ -290,7 +290,7 @@ class RunLoop:
         axes = forward_axes(orientations[position])
         records.add_step(step, world.time, tried, kept, u_measured, u_true, accepted, position + 1, piece,
                          positions[position, :2], np.arctan2(axes[:, 1], axes[:, 0]),
-                         "; ".join(event.describe() for event in applied))
+                         "; ".join(event.describe() for event in applied), self.controller.memory())
 
 
 MAX_TILT_DEG = 45.0

@@ -84,3 +84,8 @@ class Controller(ABC):
     def update(self, step: int, u_measured: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Take every unit's measured velocity (mm/cycle, NaN for a dead unit) at the proposed phases; whether each
         unit accepted its trial and every unit's kept phase after the step (what ``phase_kept`` records)."""
+
+    def memory(self) -> np.ndarray | None:
+        """Every unit's remembered velocity (mm/cycle) after the last update, what its next trial is compared with
+        (``u_memory`` of the records); None for a controller that keeps none (recorded as NaN)."""
+        return None

@@ -10,7 +10,8 @@ from morphbench.params import LearnerParams
 
 class RandomLearner(Learner):
     """Random phase changes: every step the unit runs a fresh phase drawn uniformly from its own stream and keeps
-    it, whatever it measured (no memory, every trial accepted). A learner that beats it has learned something."""
+    it, whatever it measured (every trial accepted; its ``memory`` is only the last measurement, which it never
+    uses). A learner that beats it has learned something."""
 
     def __init__(self, params: LearnerParams, rng: np.random.Generator):
         super().__init__(params, rng)

@@ -4,7 +4,8 @@ They answer what decentralization costs. Each gets what the per-unit learners ge
 learning step (step 0 measures the initial vector) and each unit's measured velocity; its objective is Ubar, the mean
 over the living units. Every draw comes from one stream, ``[run seed, CONTROLLER_STREAM]``. All three keep the best
 vector measured so far (its Ubar as measured then, like Thermal's memory): a trial that measures a higher Ubar is
-accepted by every living unit, and the kept vector is what ``phase_kept`` records. They differ in what they try:
+accepted by every living unit, and the kept vector is what ``phase_kept`` records; each unit's velocity measured at
+that vector is what ``u_memory`` records (their mean is the remembered Ubar). They differ in what they try:
 
 - ``random-search``: a fresh uniform phase vector every step;
 - ``hill-climber``: the kept vector with every phase perturbed by ``uniform(-1, 1) * step_size``;
@@ -46,6 +47,8 @@ class CentralController(Controller):
         self.kept = wrap_phases(rng.uniform(0.0, 1.0, n_units))
         self.best: float | None = None
         """Ubar measured at the kept vector (None before step 0)."""
+        self.remembered: np.ndarray | None = None
+        """each unit's velocity measured at the kept vector (None before step 0; their mean is ``best``)."""
         self._trial = self.kept
 
     def initial(self) -> np.ndarray:
@@ -62,8 +65,11 @@ class CentralController(Controller):
             self._measured(ubar)
         accepted = self.best is None or ubar > self.best  # False for NaN: nobody is left to move
         if accepted:
-            self.kept, self.best = self._trial, ubar
+            self.kept, self.best, self.remembered = self._trial, ubar, np.array(u_measured, dtype=float)
         return alive & accepted, self.kept.copy()
+
+    def memory(self) -> np.ndarray | None:
+        return None if self.remembered is None else self.remembered.copy()
 
     @abstractmethod
     def _candidate(self) -> np.ndarray:

@@ -1,8 +1,10 @@
-"""Metropolis learners (spec section 2): Thermal and Flaky differ only in what the memory holds after a trial.
+"""Metropolis learners (Oliveri et al., PNAS 2021, and its SI Fig. S1; docs/paper.md, Protocol): Thermal and Flaky
+differ only in what the memory holds after a trial.
 
 Each step a learner tries ``phi_try = (phi + eps * step_size) mod 1`` with ``eps ~ uniform[-1, 1]`` and accepts it
 with probability ``min(1, exp((U_try - U_mem) / T))``. A uniform for that decision is drawn exactly when the trial
-is worse than the memory, so a given stream of draws always gives the same decisions, whatever T is.
+is worse than the memory, so a given stream of draws always gives the same decisions, whatever T is. ``memory``
+(U_mem, mm/cycle) is public: the run loop records it after every step as ``u_memory``, beside the trial's velocity.
 """
 
 from __future__ import annotations

@@ -17,6 +17,8 @@ The plug-in interface. A plug-in need not subclass ``morphbench.learning.Learner
   return whether the trial was accepted, True or False (this feeds the acceptance rate). The two calls strictly
   alternate;
 - expose ``phase``: the kept phase, in [0, 1) right after construction, recorded every step.
+- optionally expose ``memory``: the velocity (mm/cycle) its next trial is compared with, recorded every step as
+  ``u_memory`` (NaN for a plug-in without one, or whose ``memory`` is no real number).
 
 Phases are in cycles: a proposed or kept phase that is a finite number outside [0, 1) is wrapped modulo 1 (1.25 is
 0.25, -0.1 is 0.9). Anything else (a bool, a list, None, a string, NaN or an infinity) is refused, as is an
@@ -192,6 +194,10 @@ class Decentralized(Controller):
         self.kept = np.array([kept_phase(learner, u, step) for u, learner in enumerate(self.learners)], dtype=float)
         return accepted, self.kept
 
+    def memory(self) -> np.ndarray:
+        """Each learner's ``memory`` (``remembered``; a dead unit's learner keeps the one it had)."""
+        return np.array([remembered(learner, u) for u, learner in enumerate(self.learners)], dtype=float)
+
 
 def _check_phase(learner: object, name: str) -> None:
     """A plug-in's ``phase`` must exist and lie in [0, 1) after construction: the run loop records it."""
@@ -254,6 +260,22 @@ def kept_phase(learner: object, unit: int, step: int) -> float:
         raise PluginError(learner_spec(type(learner)), "phase",
                           f"of unit {unit + 1} at learning step {step} to be a finite number (the kept phase)", value)
     return phase
+
+
+def remembered(learner: object, unit: int) -> float:
+    """The learner's ``memory`` (U_mem, mm/cycle) as a float; NaN when it keeps none (no such attribute, or not a
+    real number: a plug-in need not have one); a PluginError if reading it raises."""
+    try:
+        value = getattr(learner, "memory", None)
+    except (Exception, SystemExit) as exc:  # a property may raise anything
+        raise PluginError(learner_spec(type(learner)), "memory", f"of unit {unit + 1} to be readable (reading it "
+                          f"raised {describe(exc)})") from None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        return math.nan
+    try:
+        return float(value)
+    except (TypeError, ValueError, OverflowError):
+        return math.nan
 
 
 def proposed_phase(learner: object, unit: int, step: int) -> float:

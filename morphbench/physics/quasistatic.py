@@ -1,7 +1,7 @@
 """The quasi-static world: springs and Coulomb friction with no inertia, for assemblies whose links lie on one axis.
 
 Units weigh tens of grams and bellows move over tenths of a second, so inertia is negligible next to friction and a
-chain follows the quasi-static evolution of its springs and friction (../shared/spec, section 3b). Over each tick the
+chain follows the quasi-static evolution of its springs and friction (docs/paper.md, The physics). Over each tick the
 displacements d of the bodies along the axis minimise the incremental energy
 
     E(d) = sum_j H_j(d_a(j) - d_b(j) - c_j) + sum_i w_i |d_i|
