@@ -21,9 +21,10 @@ from morphbench.bench import jobs as bench_jobs
 from morphbench.cli import EXIT_BAD_INPUT
 from morphbench.errors import PhysicsError, PluginError
 from morphbench.experiment import RunConfig, run
-from morphbench.experiment.events import ShuffleEvent
-from morphbench.params import FAST_PHYSICS, QUASISTATIC_PHYSICS, LearnerParams, SensorParams
+from morphbench.experiment.events import CutEvent, ShuffleEvent
+from morphbench.params import DEFAULT_PHYSICS, FAST_PHYSICS, QUASISTATIC_PHYSICS, LearnerParams, SensorParams
 from morphbench.physics import QuasiStaticWorld
+from morphbench.shapes import load_shape
 from morphbench.shapes.transforms import shuffle_order
 
 from conftest import SHAPES_DIR, chain, run_cli, write_suite
@@ -184,9 +185,10 @@ BREAK_TIME = (LP.warmup_cycles + STEP_CYCLES) * 2.0 + 0.5
 
 
 class BrokenWorld(QuasiStaticWorld):
-    """A quasi-static chain whose pose of ``body`` is changed by ``fault(position, orientation)`` from BREAK_TIME on."""
+    """A quasi-static chain whose pose of ``body`` (an index, or a slice: several at once) is changed by
+    ``fault(position, orientation)`` from BREAK_TIME on."""
 
-    body: int
+    body: int | slice
     fault = staticmethod(lambda position, orientation: None)
 
     def poses(self, which=None):
@@ -197,7 +199,7 @@ class BrokenWorld(QuasiStaticWorld):
         return positions[index], orientations[index]
 
 
-def run_broken(monkeypatch, body: int, fault, shape=None, steps: int = 3):
+def run_broken(monkeypatch, body: int | slice, fault, shape=None, steps: int = 3):
     """A short run of chain-2 (units are bodies 0 and 1, the dummy body 2) in a BrokenWorld."""
     world_class = type("Broken", (BrokenWorld,), {"body": body, "fault": staticmethod(fault)})
     monkeypatch.setattr(run_module, "make_world", lambda shape, physics, environment, scene: world_class(
@@ -213,19 +215,19 @@ def tilt(degrees: float):
 
 def lift(heights: float):
     def fault(position, orientation):
-        position[2] += heights * 0.030  # the unit's height
+        position[..., 2] += heights * 0.030  # the unit's height
     return fault
 
 
 def jump(reaches_per_cycle: float):
     """Moves the body forward once, by ``reaches_per_cycle`` bellows strokes per cycle of the step it happens in."""
     def fault(position, orientation):
-        position[0] += reaches_per_cycle * 0.0105 * STEP_CYCLES
+        position[..., 0] += reaches_per_cycle * 0.0105 * STEP_CYCLES
     return fault
 
 
 def not_finite(position, orientation):
-    position[1] = math.nan
+    position[..., 1] = math.nan
 
 
 @pytest.mark.parametrize("body, fault, name, what", [
@@ -246,7 +248,83 @@ def test_each_detector_stops_the_run_at_the_step_it_fires(monkeypatch, body, fau
 
 @pytest.mark.parametrize("fault", [tilt(40), lift(0.8), jump(0.5 * run_module.MAX_REACH_PER_CYCLE)])
 def test_below_each_bound_the_run_goes_on(monkeypatch, fault):
-    assert len(run_broken(monkeypatch, 0, fault).steps()) == 4
+    """Every body at once, so that the links keep their lengths."""
+    assert len(run_broken(monkeypatch, slice(None), fault).steps()) == 4
+
+
+class SampleBrokenWorld(QuasiStaticWorld):
+    """A quasi-static chain whose sampled pose of ``body`` in the middle of each measurement from BREAK_TIME on is
+    changed by ``fault``: the poses at the checks, where the measurement ends, stay whole."""
+
+    body: int
+    fault = staticmethod(lambda position, orientation: None)
+
+    def advance_sampled(self, n_ticks, every, on_tick=None):
+        positions, orientations = super().advance_sampled(n_ticks, every, on_tick)
+        if self.time > BREAK_TIME:
+            middle = len(positions) // 2
+            self.fault(positions[middle, self.body], orientations[middle, self.body])
+        return positions, orientations
+
+
+def shift(metres: float):
+    def fault(position, orientation):
+        position[..., 0] += metres
+    return fault
+
+
+@pytest.mark.parametrize("fault, name, what", [
+    (tilt(60), "unit 1", "tipped over (tilted 60 degrees"),
+    (lift(1.5), "unit 1", "was launched (45 mm above its rest height"),
+    (shift(0.040), "link 1", "mm apart, more than the full length plus its force cap's give and 0.25 of its reach "
+     "(99.79 mm): its bodies were torn apart"),  # 70 mm empty, 10.5 stroke, 5 N / 300 N/m, 2.6 mm
+    (shift(-0.030), "link 1", "mm apart, less than the empty length minus its force cap's give and 0.25 of its reach "
+     "(50.71 mm): its bodies were pushed into each other"),
+])
+def test_motion_inside_the_measured_cycles_is_checked(monkeypatch, fault, name, what):
+    """Each fault lasts one sample in the middle of the window and is gone where the window ends."""
+    world_class = type("Broken", (SampleBrokenWorld,), {"body": 0, "fault": staticmethod(fault)})
+    monkeypatch.setattr(run_module, "make_world", lambda shape, physics, environment, scene: world_class(
+        shape, physics, environment))
+    config = RunConfig(shape=chain(2), steps=3, sensor=IDEAL, physics=QUASISTATIC_PHYSICS)
+    with pytest.raises(PhysicsError) as info:
+        run(config)
+    message = str(info.value)
+    assert message.startswith(f"test: physics left the model's validity at learning step 1: {name} "), message
+    assert what in message, message
+    if name.startswith("link"):
+        assert "(unit 1 to unit 2) held its bodies' centres " in message, message
+
+
+@pytest.mark.parametrize("cut", [False, True])
+def test_a_cut_link_lets_its_bodies_part(monkeypatch, cut):
+    """Unit 1 moved 40 mm away from unit 2 (13 mm/cycle over the step, under the speed bound) tears link 1, unless
+    that link was cut."""
+    world_class = type("Broken", (BrokenWorld,), {"body": 0, "fault": staticmethod(shift(0.040))})
+    monkeypatch.setattr(run_module, "make_world", lambda shape, physics, environment, scene: world_class(
+        shape, physics, environment))
+    config = RunConfig(shape=chain(3), steps=3, sensor=IDEAL, physics=QUASISTATIC_PHYSICS,
+                       events=(CutEvent(step=1, link=1),) if cut else ())
+    if cut:
+        assert len(run(config).steps()) == 4
+    else:
+        with pytest.raises(PhysicsError, match="at learning step 1: link 1 .* torn apart"):
+            run(config)
+
+
+def test_the_issues_exploding_chain_is_caught():
+    """30 units with 5 cm strokes and bellows of 1e7 N/m: PyBullet's explicit springs chatter at their force cap and
+    the chain buckles while its units' net displacement stays under the speed bound (issue 21)."""
+    shape = chain(30, actuator={"stiffness": 1e7, "stroke": 0.05})
+    with pytest.raises(PhysicsError, match=r"at learning step 0: link \d+ \(unit \d+ to unit \d+\) held its bodies"):
+        run(RunConfig(shape=shape, steps=2, sensor=IDEAL, physics=FAST_PHYSICS))
+
+
+@pytest.mark.parametrize("name", ["chain-2", "chain-3", "chain-20", "grid-2x2"])
+@pytest.mark.parametrize("physics", [DEFAULT_PHYSICS, FAST_PHYSICS], ids=["default", "fast"])
+def test_healthy_library_shapes_stay_valid(name, physics):
+    assert len(run(RunConfig(shape=load_shape(SHAPES_DIR / f"{name}.toml"), steps=3, sensor=IDEAL,
+                             physics=physics)).steps()) == 4
 
 
 def test_a_shuffled_unit_is_named_by_its_own_number(monkeypatch):
