@@ -19,11 +19,22 @@ import pytest
 from morphbench.bench import LocalExecutor, load_suite, run_suite
 from morphbench.bench import jobs as bench_jobs
 from morphbench.cli import EXIT_BAD_INPUT
-from morphbench.errors import PhysicsError, PluginError
+from morphbench.errors import ConfigError, PhysicsError, PluginError
 from morphbench.experiment import RunConfig, run
 from morphbench.experiment.events import CutEvent, ShuffleEvent
-from morphbench.params import DEFAULT_PHYSICS, FAST_PHYSICS, QUASISTATIC_PHYSICS, LearnerParams, SensorParams
-from morphbench.physics import QuasiStaticWorld
+from morphbench.params import (
+    DEFAULT_PHYSICS,
+    FAST_PHYSICS,
+    GRAVITY,
+    MIN_FRICTION_INERTIA,
+    QUASISTATIC_PHYSICS,
+    EnvironmentParams,
+    FrictionFieldParams,
+    LearnerParams,
+    SensorParams,
+    friction_inertia,
+)
+from morphbench.physics import QuasiStaticWorld, World, make_world
 from morphbench.shapes import load_shape
 from morphbench.shapes.transforms import shuffle_order
 
@@ -345,13 +356,18 @@ def huge(shape, **actuator):
     return dataclasses.replace(shape, actuator=dataclasses.replace(shape.actuator, **actuator))
 
 
+RUNAWAY = {"stroke": 1000.0, "tau_inflate": 100.0, "tau_vent": 100.0}
+"""A bellows of 1 km that the quasi-static model takes (slow enough to keep friction 56 times its inertial force): it
+pushes its bodies metres per cycle."""
+
+
 def with_unit_mass(shape, mass):
     return dataclasses.replace(shape, bodies=tuple(dataclasses.replace(b, mass=mass) if not b.dummy else b
                                                    for b in shape.bodies))
 
 
 @pytest.mark.parametrize("shape, physics, what", [
-    (huge(chain(2), stroke=1e300), QUASISTATIC_PHYSICS, "faster than its bellows can push it"),
+    (huge(chain(2), **RUNAWAY), QUASISTATIC_PHYSICS, "faster than its bellows can push it"),
     (huge(chain(2), stroke=1e300), FAST_PHYSICS, "tipped over"),
     (with_unit_mass(chain(2), 1e-6), FAST_PHYSICS, "tipped over"),
     (huge(chain(2), damping=1e300), FAST_PHYSICS, "faster than its bellows can push it"),
@@ -387,9 +403,130 @@ def test_in_a_suite_a_blown_up_run_is_recorded_as_failed(tmp_path):
     job = load_suite(suite).jobs()[0]
     config = job.payload
     broken = dataclasses.replace(job, payload=dataclasses.replace(
-        config, shape=huge(config.shape, stroke=1e300), physics=QUASISTATIC_PHYSICS))
+        config, shape=huge(config.shape, **RUNAWAY), physics=QUASISTATIC_PHYSICS))
     result = bench_jobs.execute(broken)
     assert result["status"] == "failed"
     assert result["error"].startswith(f"{CHAIN2}: physics left the model's validity at learning step 0: unit 1 moved")
     assert "Traceback" in result["traceback"]
     assert bench_jobs.execute(job)["status"] == "done"
+
+
+def test_an_absurd_stroke_is_refused_on_the_quasi_static_backend_before_simulating():
+    with pytest.raises(ConfigError, match=r"friction_scale >= 2e\+301 .* stroke 1e\+300 m"):
+        RunConfig(shape=huge(chain(2), stroke=1e300), physics=QUASISTATIC_PHYSICS)
+
+
+# --- the quasi-static model's range: friction against inertia -----------------------------------------------------
+
+CHAIN3 = str(SHAPES_DIR / "chain-3.toml")
+CHAIN3_LOWEST = MIN_FRICTION_INERTIA / friction_inertia(chain(3), EnvironmentParams())[0]
+"""the lowest friction scale the quasi-static model takes for chain-3 (0.216)."""
+
+
+def test_friction_against_inertia_follows_its_formula():
+    """mu g tau^2 / stroke with mu the mass-weighted mean friction (chain-2: units 0.5, dummy 0.7, 50 g each)."""
+    shape, environment = chain(2), EnvironmentParams()
+    ratio, mu, tau, stroke = friction_inertia(shape, environment)
+    assert (mu, tau, stroke) == (pytest.approx(1.7 / 3), 0.3, 0.0105)
+    assert ratio == pytest.approx(1.7 / 3 * GRAVITY * 0.09 / 0.0105)  # 47.6
+    assert friction_inertia(shape, environment, 0.5)[0] == pytest.approx(ratio / 2)
+    assert friction_inertia(shape, EnvironmentParams(vibration=0.8))[0] == pytest.approx(0.8 * ratio)
+    assert friction_inertia(shape, EnvironmentParams(vibration=1.5))[0] == pytest.approx(ratio)  # never raised
+    field = EnvironmentParams(friction_field=FrictionFieldParams(amplitude=0.4))
+    assert friction_inertia(shape, field)[0] == pytest.approx(0.6 * ratio)  # the field's troughs
+    slow = huge(shape, tau_inflate=0.6)  # the faster time constant counts
+    assert friction_inertia(slow, environment)[0] == pytest.approx(ratio)
+    assert friction_inertia(huge(shape, tau_vent=0.15), environment)[0] == pytest.approx(ratio / 4)
+    assert friction_inertia(huge(shape, stroke=0.021), environment)[0] == pytest.approx(ratio / 2)
+    mean = (2 * 0.2 * 0.5 + 0.05 * 0.7) / 0.45  # heavier units weigh more in the mean, not in the ratio
+    assert friction_inertia(with_unit_mass(shape, 0.2), environment)[0] == pytest.approx(ratio * mean / (1.7 / 3))
+    assert CHAIN3_LOWEST == pytest.approx(0.2162, abs=1e-4)
+
+
+@pytest.mark.parametrize("scale", [1e-6, 0.2])
+def test_a_quasistatic_run_below_the_range_is_refused_before_simulating(scale):
+    environment = EnvironmentParams(friction_scale=scale)
+    with pytest.raises(ConfigError) as info:
+        RunConfig(shape=chain(3), environment=environment, physics=QUASISTATIC_PHYSICS)
+    message = str(info.value)
+    assert message.startswith("test: environment.friction_scale: expected a friction_scale >= 0.216 on the "
+                              "quasi-static physics, which holds only while friction is at least 10 times the bellows' "
+                              "inertial force (mu g tau^2 / stroke = "), message
+    assert message.endswith(f"use the PyBullet physics (--physics fast or reference), got {scale!r}"), message
+    RunConfig(shape=chain(3), environment=environment, physics=FAST_PHYSICS)  # PyBullet takes it
+    RunConfig(shape=chain(3), environment=EnvironmentParams(friction_scale=0.22), physics=QUASISTATIC_PHYSICS)
+
+
+def test_auto_refuses_rather_than_switch_and_keeps_pybullet_for_stacks():
+    """A RunConfig on 'auto' is built (the command line may still choose its physics), then its world is refused
+    where 'auto' picks the quasi-static model; a stack, which 'auto' puts on PyBullet anyway, is not refused."""
+    environment = EnvironmentParams(friction_scale=1e-6)
+    config = RunConfig(shape=chain(3), environment=environment, steps=1, sensor=IDEAL)
+    with pytest.raises(ConfigError, match="environment.friction_scale: expected a friction_scale >= 0.216"):
+        run(config)
+    with make_world(load_shape(SHAPES_DIR / "stack-2x2x2.toml"), DEFAULT_PHYSICS, environment) as world:
+        assert isinstance(world, World)
+    with pytest.raises(ConfigError, match="environment.friction_scale"):
+        make_world(chain(3), QUASISTATIC_PHYSICS, environment)  # scans build their worlds here too
+
+
+def run_file(tmp_path, text: str) -> str:
+    path = tmp_path / "low.toml"
+    path.write_text(f'shape = "{CHAIN3}"\nsteps = 3\n' + textwrap.dedent(text))
+    return str(path)
+
+
+def test_morphbench_run_below_the_range_exits_2_unless_on_pybullet(tmp_path, capsys):
+    path = run_file(tmp_path, "[environment]\nfriction_scale = 1e-6\n")
+    for physics in ([], ["--physics", "quasistatic"]):
+        status, _, err = run_cli(capsys, "run", path, "--out", str(tmp_path / "qs"), "--quiet", "--sensor", "ideal",
+                                 *physics)
+        assert status == EXIT_BAD_INPUT
+        lines = err.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(
+            f"morphbench: error: {CHAIN3}: environment.friction_scale: expected a friction_scale >= 0.216 "), err
+        assert not (tmp_path / "qs").exists()
+    status, out, err = run_cli(capsys, "run", path, "--out", str(tmp_path / "fast"), "--quiet", "--sensor", "ideal",
+                               "--physics", "fast")
+    assert status == 0, err
+    assert (tmp_path / "fast" / "steps.parquet").exists()
+
+
+def test_a_friction_event_below_the_range_stops_a_quasistatic_run_at_its_step(tmp_path, capsys):
+    path = run_file(tmp_path, "[[events]]\nstep = 2\nkind = \"friction\"\nscale = 1e-300\n")
+    status, _, err = run_cli(capsys, "run", path, "--out", str(tmp_path / "qs"), "--quiet", "--sensor", "ideal")
+    assert status == EXIT_BAD_INPUT
+    assert err.strip().splitlines() == [
+        f"morphbench: error: {CHAIN3}: physics left the model's validity at learning step 2: a friction event (scale "
+        "1e-300) takes friction outside the quasi-static model's range: expected a friction_scale >= 0.216 on the "
+        "quasi-static physics, which holds only while friction is at least 10 times the bellows' inertial force (mu g "
+        "tau^2 / stroke = 4.62e-299 with mu 5.5e-301, tau 0.3 s, stroke 0.0105 m; docs/fidelity.md): use the PyBullet "
+        "physics (--physics fast or reference)"]
+    status, _, err = run_cli(capsys, "run", path, "--out", str(tmp_path / "fast"), "--quiet", "--sensor", "ideal",
+                             "--physics", "fast")
+    assert status == 0, err
+
+
+def test_in_a_suite_a_friction_event_below_the_range_fails_the_quasistatic_runs_only(tmp_path):
+    """Two seeds on the default physics (run as one batch on the quasi-static model) fail at the event; the same
+    seeds on PyBullet finish."""
+    suite = write_suite(tmp_path, f"""
+        [[experiment]]
+        name = "slippery"
+        shapes = ["{CHAIN3}"]
+        physics = ["default", "fast"]
+        seeds = 2
+        steps = 3
+        [[experiment.events]]
+        step = 2
+        kind = "friction"
+        scale = 0.1
+    """)
+    outcome = run_suite(load_suite(suite), tmp_path / "out", LocalExecutor(2), progress=False)
+    assert (outcome.done, outcome.failed) == (2, 2)
+    runs = outcome.tables["runs"]
+    failed = runs[runs.status == "failed"]
+    assert set(failed.physics) == {"default"}
+    expected = (f"{CHAIN3}: physics left the model's validity at learning step 2: a friction event (scale 0.1) takes "
+                "friction outside the quasi-static model's range")
+    assert all(error.startswith(expected) for error in failed.error), list(failed.error)

@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from morphbench.params import DAMAGE_MODES, EnvironmentParams
+from morphbench.params import DAMAGE_MODES, GRAVITY, EnvironmentParams, check_quasistatic_friction
 from morphbench.physics.friction import NO_FIELD, FrictionField
 from morphbench.physics.pressure import pressure_trajectory
 from morphbench.shapes.checks import connected_groups
 from morphbench.shapes.model import Shape
 
-GRAVITY = 9.81  # m/s^2
 FIELD_UPDATE_PERIOD = 0.1  # s: units move well under a millimetre in this time, the field varies over centimetres
 
 
@@ -191,6 +190,12 @@ class QuasiStatic(Bellows):
     def __init__(self, shape: Shape, environment: EnvironmentParams):
         super().__init__(shape, environment)
         self._factor = np.ones(len(shape.bodies))
+
+    def set_friction_scale(self, scale: float) -> None:
+        """As for every world; a ConfigError if ``scale`` takes friction below the model's range (and nothing
+        changes)."""
+        check_quasistatic_friction(self.shape, self.environment, self.shape.source, scale)
+        super().set_friction_scale(scale)
 
     def relax_ticks(self, lengths, limits, record=None, states=None, first_tick: int | None = None) -> None:
         """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``
