@@ -346,15 +346,14 @@ class _Validity:
         self.cuts = [(event.step, event.link - 1) for event in events if isinstance(event, CutEvent)]
         self.positions, self.time = world.poses()[0], world.time
 
-    def check(self, step: int, order: np.ndarray, samples: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+    def check(self, step: int, order: np.ndarray, samples: tuple[np.ndarray, np.ndarray]) -> None:
         """A PhysicsError naming the first body (or link) found outside the model (unit numbers by identity:
         ``order[p]`` is the unit at position p); ``samples`` are the units' sampled poses of the measured cycles,
         (K, n_units, 3) positions and (K, n_units, 4) quaternions, as ``advance_sampled`` gives them. The first
         detector that fires names what it found first, in the order above."""
         positions, orientations = self.world.poses()
-        frames = [(np.arange(len(self.shape.bodies)), positions[None], orientations[None])]
-        if samples is not None:
-            frames.insert(0, (np.array(self.shape.units, dtype=int), *samples))
+        frames = [(np.array(self.shape.units, dtype=int), *samples),  # the units inside the window
+                  (np.arange(len(self.shape.bodies)), positions[None], orientations[None])]  # every body at its end
         for bodies, frame_positions, frame_orientations in frames:
             self._check_bodies(step, order, bodies, frame_positions, frame_orientations)
         self._check_speed(step, order, positions)
@@ -385,6 +384,7 @@ class _Validity:
             raise PhysicsError(self.shape.source, step, self._name(bodies[i], order), what)
 
     def _check_speed(self, step: int, order: np.ndarray, positions: np.ndarray) -> None:
+        """Every body's speed since the previous check, from its position then and ``positions`` now."""
         cycles = (self.world.time - self.time) / self.shape.actuator.cycle_time
         d = positions - self.positions
         moved = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])  # hypot: no overflow when a body flew off
