@@ -202,6 +202,14 @@ def check_plan_size(count: int, limit: int, bytes_each: int, what: str, source: 
         raise ConfigError(source, key, f"at most {limit:,} {what} (this asks for {count:,}, about {shown} of memory "
                                        "before anything runs)", got)
     return count
+GRAVITY = 9.81
+"""m/s^2."""
+MIN_FRICTION_INERTIA = 10.0
+"""The quasi-static model's range: ``friction_inertia`` at least this. The model neglects inertia, which holds while
+friction dominates it; below 10 its gaits part from PyBullet's beyond the targets docs/fidelity.md sets between the
+two (rms 0.4 mm/cycle over the 2-unit curve, 0.6 over 3-unit phases), and at a friction scale of 1e-6 the
+quasi-static chain-2 still walks at +6.7 mm/cycle where PyBullet's glides at 0 (docs/fidelity.md, "Friction against
+inertia")."""
 
 
 def param(default: Any, rule: Rule, unit: str = "") -> Any:
@@ -576,10 +584,48 @@ class VideoParams:
 # --- rules across fields: checked wherever a RunConfig is built -------------------------------------------------------
 
 
+def friction_inertia(shape: Any, environment: EnvironmentParams, friction_scale: float | None = None
+                     ) -> tuple[float, float, float, float]:
+    """How many times the assembly's friction exceeds the inertial force of its bellows' motion, per unit of mass:
+    mu g / (stroke / tau^2) (dimensionless), with mu, tau (s) and stroke (m). A bellows starts to extend or retract
+    with the acceleration stroke / tau^2 (its pressure follows exp(-t / tau)): the largest stroke, the faster time
+    constant. mu is the bodies' mean friction coefficient weighted by mass, times ``friction_scale`` (the
+    environment's by default), at its lowest: where the pumps' vibration (if below 1) and the friction field's troughs
+    (1 - amplitude) lower it. Masses and stiffness cancel out: in the PyBullet runs that measured the bound
+    (docs/fidelity.md) 4 times the mass or a third of the stiffness parted from the quasi-static model at the same
+    friction scale."""
+    scale = environment.friction_scale if friction_scale is None else friction_scale
+    mass = sum(body.mass for body in shape.bodies)
+    mu = sum(body.mass * body.friction for body in shape.bodies) / mass * scale * min(1.0, environment.vibration) \
+        * (1.0 - environment.friction_field.amplitude)
+    actuator = shape.actuator
+    stroke = max([actuator.stroke] + [link.stroke for link in shape.links if link.stroke is not None])
+    tau = min(actuator.tau_inflate, actuator.tau_vent)
+    return mu * GRAVITY * tau**2 / stroke, mu, tau, stroke
+
+
+def check_quasistatic_friction(shape: Any, environment: EnvironmentParams, source: str,
+                               friction_scale: float | None = None) -> None:
+    """ConfigError naming ``source`` and environment.friction_scale unless the quasi-static model holds for
+    ``shape`` in ``environment`` (with ``friction_scale`` instead of the environment's, if given):
+    ``friction_inertia`` at least MIN_FRICTION_INERTIA."""
+    scale = environment.friction_scale if friction_scale is None else friction_scale
+    ratio, mu, tau, stroke = friction_inertia(shape, environment, scale)
+    if ratio >= MIN_FRICTION_INERTIA:
+        return
+    needed = f"a friction_scale >= {scale * MIN_FRICTION_INERTIA / ratio:.3g}" if ratio > 0 else "bodies with friction"
+    raise ConfigError(source, "environment.friction_scale",
+                      f"{needed} on the quasi-static physics, which holds only while friction is at least "
+                      f"{MIN_FRICTION_INERTIA:g} times the bellows' inertial force (mu g tau^2 / stroke = {ratio:.3g} "
+                      f"with mu {mu:.3g}, tau {tau:g} s, stroke {stroke:g} m; docs/fidelity.md): use the PyBullet "
+                      "physics (--physics fast or reference)", scale)
+
+
 def check_run(config: Any, source: str) -> None:
     """ConfigError naming ``source`` unless the fields of a RunConfig fit together: steps and seed in range, the pump
     and the vent phase each spanning MIN_TICKS_PER_PHASE physics ticks, a stretch of cycles (warm-up, discarded,
-    measured) at most MAX_TICKS_PER_ADVANCE ticks, and the friction field at most MAX_FIELD_WAVES waves per period."""
+    measured) at most MAX_TICKS_PER_ADVANCE ticks, the friction field at most MAX_FIELD_WAVES waves per period, and on
+    the quasi-static backend friction within the model's range (``check_quasistatic_friction``)."""
     check_rule(STEPS, "", config.steps, source, "steps")
     check_rule(SEED, "", config.seed, source, "seed")
     actuator, physics, learner = config.shape.actuator, config.physics, config.learner_params
@@ -601,3 +647,5 @@ def check_run(config: Any, source: str) -> None:
         raise ConfigError(source, "environment.friction_field.correlation_length",
                           f"at least period / {MAX_FIELD_WAVES} = {friction.period / MAX_FIELD_WAVES:g} m",
                           friction.correlation_length)
+    if physics.backend == "quasistatic":  # 'auto' is checked where it picks its model (physics.make_world)
+        check_quasistatic_friction(config.shape, config.environment, source)

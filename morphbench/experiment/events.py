@@ -10,6 +10,9 @@
 
 Links are numbered from 1 in the shape's order (for a chain, link k is unit k's bellows).
 
+A friction event that takes a quasi-static world below its model's range (params.check_quasistatic_friction) stops the
+run at its step with a PhysicsError: that model neglects inertia, which little friction no longer allows.
+
 One frozen dataclass per kind: ``parse`` reads its fields from a TOML table, ``apply(world, state)`` is what the run
 loop does at its step, ``describe()`` is recorded in ``steps.parquet`` (column ``event``) at the step it happened.
 """
@@ -23,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from morphbench.errors import ConfigError, require_integer
+from morphbench.errors import ConfigError, PhysicsError, require_integer
 from morphbench.params import DAMAGE_MODES, SEED, EnvironmentParams, check, check_rule
 from morphbench.shapes.transforms import shuffle_order
 
@@ -100,7 +103,12 @@ class FrictionEvent(Event):
         return {"scale": check(EnvironmentParams, "friction_scale", item["scale"], source, f"{where}.scale")}
 
     def apply(self, world, state):
-        world.set_friction_scale(self.scale)
+        try:
+            world.set_friction_scale(self.scale)
+        except ConfigError as exc:  # a quasi-static world refuses friction below its model's range
+            raise PhysicsError(exc.source, self.step, f"a friction event (scale {self.scale:g})",
+                               f"takes friction outside the quasi-static model's range: expected {exc.expected}") \
+                from None
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -20,7 +20,7 @@ from morphbench.bench.identity import shape_id
 from morphbench.errors import ConfigError, PhysicsError
 from morphbench.experiment.records import RunRecords
 from morphbench.learning import Controller, load_learner_class, make_controller
-from morphbench.experiment.events import Event, RunState, parse_events
+from morphbench.experiment.events import CutEvent, Event, RunState, parse_events
 from morphbench.params import (
     DEFAULT_PHYSICS,
     DEFAULT_SEED,
@@ -34,6 +34,7 @@ from morphbench.params import (
     check_run,
 )
 from morphbench.physics import World, make_world
+from morphbench.physics.bellows import link_spans
 from morphbench.physics.camera import CameraGround
 from morphbench.sensing import GroundTexture, IdealSensor, OpticalSensor, Sensor
 from morphbench.sensing.base import forward_axes, tilts
@@ -205,7 +206,7 @@ class RunLoop:
         self.observe = (lambda k: on_tick(world)) if on_tick is not None else None
         self.kept = controller.initial()
         """each unit's kept phase in [0, 1), from the controller once per step."""
-        self.validity = _Validity(config.shape, world)
+        self.validity = _Validity(config.shape, world, config.events)
         cycle, lp = config.shape.actuator.cycle_time, config.learner_params
         self.warmup_ticks = world.ticks_in(lp.warmup_cycles * cycle)
         self.discard_ticks = world.ticks_in(lp.discard_cycles * cycle)
@@ -230,7 +231,7 @@ class RunLoop:
                     measurement: Measurement, samples: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
         """The rest of ``step`` once its measured cycles are simulated: measurements, validity, update, record."""
         u_measured, u_true = self.measured(measurement, *samples)
-        self.check_physics(step)
+        self.check_physics(step, samples)
         accepted = self.update(u_measured, step)
         self.record(records, step, tried, u_measured, u_true, accepted, applied)
         return u_measured
@@ -269,9 +270,10 @@ class RunLoop:
         u_measured[~self.state.alive()] = np.nan
         return u_measured, u_true
 
-    def check_physics(self, step: int) -> None:
-        """A PhysicsError if the world has left the model's validity since the previous check."""
-        self.validity.check(step, self.state.order)
+    def check_physics(self, step: int, samples: tuple[np.ndarray, np.ndarray]) -> None:
+        """A PhysicsError if the world has left the model's validity since the previous check, or at any of the
+        measured cycles' ``samples`` (the units' sampled poses)."""
+        self.validity.check(step, self.state.order, samples)
 
     def update(self, u_measured: np.ndarray, step: int) -> np.ndarray:
         """The controller gets the measurements (a per-unit learner its own unit's only); whether each unit accepted
@@ -297,10 +299,14 @@ MAX_TILT_DEG = 45.0
 """A body tipped further than this from upright has left the model: units slide upright on their four feet."""
 MAX_REACH_PER_CYCLE = 3.0
 """In bellows reaches per cycle, the fastest a body may move (see ``_Validity``)."""
+LINK_MARGIN = 0.25
+"""In bellows reaches, how far a link's length may leave the span its bellows holds it in (see ``_Validity``)."""
 
 
 class _Validity:
-    """Checks that a world is still in the model's validity, from the bodies' poses at each check.
+    """Checks that a world is still in the model's validity, from the bodies' poses at each check and the units'
+    poses at every sample of the measured cycles (the sensors' samples), so that motion inside the window counts, not
+    only where it ends:
 
     - every position and orientation is finite;
     - no body is tilted more than MAX_TILT_DEG from upright (the angle of its own z axis from the vertical);
@@ -311,49 +317,110 @@ class _Validity:
       per cycle, and the fastest gait of the library moves well under one stroke per cycle (docs/morphologies.md);
       3 leaves room for transients such as a cut or a damaged bellows letting go. The reach is the largest stroke,
       but at most the largest body's size: the model's bellows sits between neighbours and pushes along their centre
-      line, which a bellows longer than a unit no longer does (so an absurd stroke is caught, not licensed).
+      line, which a bellows longer than a unit no longer does (so an absurd stroke is caught, not licensed);
+    - every link not cut holds its two bodies' centres at a distance its bellows can have: from empty to full, give or
+      take what its force cap stretches or compresses it (max_force / stiffness), and LINK_MARGIN of its reach. Only a
+      load beyond the cap takes a bellows further (the quasi-static model lets it give way: its bodies are torn apart
+      or pushed through each other), or an explicit spring too stiff for PyBullet's step, which chatters at its cap:
+      the issue's 30-unit chain at 1e7 N/m left the span by 185 mm (3.7 strokes), chain-3 at 900 N/m and chain-2 at
+      1500 N/m by 0.8 to 1.5 strokes, while the library's shapes on both backends, at equal, alternating, wave and
+      random phases, stay within 2 mm (0.2 strokes) of empty to full and never reach their cap.
+
+    A bound on the speed, path or excursion of a body inside the window would not separate the two: a body is carried
+    by every bellows between it and where its assembly holds, so a healthy quasi-static 30-unit chain with rigid
+    bellows of 5 cm, pumping in phase, swings its front unit 27 reaches per cycle, more than the exploding one's 16.
     """
 
-    def __init__(self, shape: Shape, world: World):
+    def __init__(self, shape: Shape, world: World, events: tuple[Event, ...] = ()):
         self.shape, self.world = shape, world
         self.rest_height = shape.placed_positions()[:, 2]
         self.height = np.array([body.size[2] for body in shape.bodies], dtype=float)
-        strokes = [shape.actuator.stroke] + [link.stroke for link in shape.links if link.stroke is not None]
-        reach = min(max(strokes), max(max(body.size) for body in shape.bodies))
+        pitch, strokes = link_spans(shape)
+        reach = min(max([shape.actuator.stroke, *strokes]), max(max(body.size) for body in shape.bodies))
         self.max_speed = MAX_REACH_PER_CYCLE * reach
         """m/cycle."""
+        actuator = shape.actuator
+        give = actuator.max_force / actuator.stiffness + LINK_MARGIN * np.minimum(strokes, reach)
+        self.span = pitch - give, pitch + strokes + give
+        """m, per link: the shortest and longest centre-to-centre distance its bellows holds its bodies at."""
+        self.ends = np.array([(link.front, link.rear) for link in shape.links], dtype=int).reshape(-1, 2)
+        self.cuts = [(event.step, event.link - 1) for event in events if isinstance(event, CutEvent)]
         self.positions, self.time = world.poses()[0], world.time
 
-    def check(self, step: int, order: np.ndarray) -> None:
-        """A PhysicsError naming the first body found outside the model (unit numbers by identity: ``order[p]`` is
-        the unit at position p)."""
+    def check(self, step: int, order: np.ndarray, samples: tuple[np.ndarray, np.ndarray]) -> None:
+        """A PhysicsError naming the first body (or link) found outside the model (unit numbers by identity:
+        ``order[p]`` is the unit at position p); ``samples`` are the units' sampled poses of the measured cycles,
+        (K, n_units, 3) positions and (K, n_units, 4) quaternions, as ``advance_sampled`` gives them. The first
+        detector that fires names what it found first, in the order above."""
         positions, orientations = self.world.poses()
+        frames = [(np.array(self.shape.units, dtype=int), *samples),  # the units inside the window
+                  (np.arange(len(self.shape.bodies)), positions[None], orientations[None])]  # every body at its end
+        for bodies, frame_positions, frame_orientations in frames:
+            self._check_bodies(step, order, bodies, frame_positions, frame_orientations)
+        self._check_speed(step, order, positions)
+        for bodies, frame_positions, _ in frames:
+            self._check_links(step, order, bodies, frame_positions)
+        self.positions, self.time = positions, self.world.time
+
+    def _check_bodies(self, step: int, order: np.ndarray, bodies: np.ndarray, positions: np.ndarray,
+                      orientations: np.ndarray) -> None:
+        """Finite, upright and on the ground: ``positions`` (K, len(bodies), 3) and ``orientations`` (K, ..., 4) of
+        ``bodies`` in K frames."""
+        finite = np.isfinite(positions).all(axis=2) & np.isfinite(orientations).all(axis=2)
+        tilt = tilts(orientations.reshape(-1, 4)).reshape(finite.shape)
+        rise = positions[..., 2] - self.rest_height[bodies]
+        height = self.height[bodies]
+        for outside in (~finite, ~(tilt <= MAX_TILT_DEG), ~(rise <= height)):
+            if not outside.any():  # nearly always: name the first one found otherwise
+                continue
+            k, i = np.argwhere(outside)[0]
+            if not finite[k, i]:
+                what = f"has a pose that is not finite (position {positions[k, i].tolist()}, orientation " \
+                       f"{orientations[k, i].tolist()})"
+            elif tilt[k, i] > MAX_TILT_DEG:
+                what = f"tipped over (tilted {tilt[k, i]:.0f} degrees from upright, more than {MAX_TILT_DEG:.0f})"
+            else:
+                what = f"was launched ({1000 * rise[k, i]:.4g} mm above its rest height, more than its own height " \
+                       f"of {1000 * height[i]:.4g} mm)"
+            raise PhysicsError(self.shape.source, step, self._name(bodies[i], order), what)
+
+    def _check_speed(self, step: int, order: np.ndarray, positions: np.ndarray) -> None:
+        """Every body's speed since the previous check, from its position then and ``positions`` now."""
         cycles = (self.world.time - self.time) / self.shape.actuator.cycle_time
-        finite = np.isfinite(positions).all(axis=1) & np.isfinite(orientations).all(axis=1)
-        tilt = tilts(orientations)
-        rise = positions[:, 2] - self.rest_height
         d = positions - self.positions
         moved = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])  # hypot: no overflow when a body flew off
         speed = moved / cycles if cycles > 0 else np.zeros(len(moved))
-        outside = ~finite | ~(tilt <= MAX_TILT_DEG) | ~(rise <= self.height) | ~(speed <= self.max_speed)
-        for body in np.flatnonzero(outside):  # nearly always none: name the first one found
-            if not finite[body]:
-                what = f"has a pose that is not finite (position {positions[body].tolist()}, orientation " \
-                       f"{orientations[body].tolist()})"
-            elif tilt[body] > MAX_TILT_DEG:
-                what = f"tipped over (tilted {tilt[body]:.0f} degrees from upright, more than {MAX_TILT_DEG:.0f})"
-            elif rise[body] > self.height[body]:
-                what = f"was launched ({1000 * rise[body]:.4g} mm above its rest height, more than its own height " \
-                       f"of {1000 * self.height[body]:.4g} mm)"
-            elif speed[body] > self.max_speed:
-                reach = 1000 * self.max_speed / MAX_REACH_PER_CYCLE
-                what = f"moved {1000 * speed[body]:.4g} mm/cycle over {cycles:g} cycles, faster than its bellows can " \
-                       f"push it (at most {MAX_REACH_PER_CYCLE:g} x {reach:.4g} mm " \
-                       f"per cycle: the bellows' stroke, at most a body's size)"
-            else:
-                continue
-            raise PhysicsError(self.shape.source, step, self._name(body, order), what)
-        self.positions, self.time = positions, self.world.time
+        for body in np.flatnonzero(~(speed <= self.max_speed)):
+            reach = 1000 * self.max_speed / MAX_REACH_PER_CYCLE
+            raise PhysicsError(self.shape.source, step, self._name(body, order),
+                               f"moved {1000 * speed[body]:.4g} mm/cycle over {cycles:g} cycles, faster than its "
+                               f"bellows can push it (at most {MAX_REACH_PER_CYCLE:g} x {reach:.4g} mm per cycle: the "
+                               f"bellows' stroke, at most a body's size)")
+
+    def _check_links(self, step: int, order: np.ndarray, bodies: np.ndarray, positions: np.ndarray) -> None:
+        """Every link not cut by ``step`` with both bodies among ``bodies`` within its span, in each of the frames
+        ``positions`` (K, len(bodies), 3)."""
+        column = np.full(len(self.shape.bodies), -1)
+        column[bodies] = np.arange(len(bodies))
+        cut = {link for at, link in self.cuts if at <= step}
+        links = [j for j in range(len(self.ends)) if j not in cut and (column[self.ends[j]] >= 0).all()]
+        front, rear = column[self.ends[links, 0]], column[self.ends[links, 1]]
+        d = positions[:, front] - positions[:, rear]
+        length = np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])
+        short, long = self.span[0][links], self.span[1][links]
+        outside = (length < short) | (length > long)
+        if not outside.any():
+            return
+        k, i = np.argwhere(outside)[0]
+        j, (a, b) = links[i], self.ends[links[i]]
+        if length[k, i] > long[i]:
+            bound, side, what = long[i], "more than the full length plus", "torn apart"
+        else:
+            bound, side, what = short[i], "less than the empty length minus", "pushed into each other"
+        raise PhysicsError(self.shape.source, step, f"link {j + 1}",
+                           f"({self._name(a, order)} to {self._name(b, order)}) held its bodies' centres "
+                           f"{1000 * length[k, i]:.4g} mm apart, {side} its force cap's give and {LINK_MARGIN:g} of "
+                           f"its reach ({1000 * bound:.4g} mm): its bodies were {what}")
 
     def _name(self, body: int, order: np.ndarray) -> str:
         units = self.shape.units

@@ -38,7 +38,12 @@ def _import_pybullet_quietly() -> None:
 _import_pybullet_quietly()
 
 from morphbench.errors import ConfigError  # noqa: E402
-from morphbench.params import PHYSICS_BACKENDS, EnvironmentParams, PhysicsParams  # noqa: E402
+from morphbench.params import (  # noqa: E402
+    PHYSICS_BACKENDS,
+    EnvironmentParams,
+    PhysicsParams,
+    check_quasistatic_friction,
+)
 from morphbench.physics.planar import PlanarWorld, check_one_layer  # noqa: E402
 from morphbench.physics.pressure import pressure_trajectory, pump_on  # noqa: E402
 from morphbench.physics.quasistatic import QuasiStaticWorld, chain_axis  # noqa: E402
@@ -60,19 +65,20 @@ def make_world(shape, physics: PhysicsParams, environment: EnvironmentParams = E
                scene: bool = False):
     """A world of ``shape`` on the backend ``physics.backend`` ('auto': the quasi-static model for any shape in one
     layer on the ground, unless ``scene`` asks for a PyBullet scene to render, as the camera sensor does; PyBullet
-    for stacks)."""
-    if physics.backend == "auto":
-        if not scene:
-            try:
-                return quasistatic_world(shape, physics, environment)
-            except ConfigError:
-                pass
+    for stacks). A quasi-static world outside the model's range (``check_quasistatic_friction``) is refused, also when
+    'auto' picks it: a run is never switched to another model behind its back."""
+    if physics.backend not in PHYSICS_BACKENDS:
+        raise ConfigError("physics", "backend", f"one of {', '.join(PHYSICS_BACKENDS)}", physics.backend)
+    if physics.backend == "pybullet" or (physics.backend == "auto" and scene):
         return World(shape, physics, environment)
-    if physics.backend == "pybullet":
-        return World(shape, physics, environment)
-    if physics.backend == "quasistatic":
-        return quasistatic_world(shape, physics, environment)
-    raise ConfigError("physics", "backend", f"one of {', '.join(PHYSICS_BACKENDS)}", physics.backend)
+    try:
+        world = quasistatic_world(shape, physics, environment)
+    except ConfigError:
+        if physics.backend == "quasistatic":
+            raise
+        return World(shape, physics, environment)  # auto: a stack
+    check_quasistatic_friction(shape, environment, shape.source)
+    return world
 
 
 __all__ = ["PlanarWorld", "QuasiStaticWorld", "World", "make_world", "pressure_trajectory", "pump_on",

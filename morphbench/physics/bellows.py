@@ -5,14 +5,22 @@ from __future__ import annotations
 
 import numpy as np
 
-from morphbench.params import DAMAGE_MODES, EnvironmentParams
+from morphbench.params import DAMAGE_MODES, GRAVITY, EnvironmentParams, check_quasistatic_friction
 from morphbench.physics.friction import NO_FIELD, FrictionField
 from morphbench.physics.pressure import pressure_trajectory
 from morphbench.shapes.checks import connected_groups
 from morphbench.shapes.model import Shape
 
-GRAVITY = 9.81  # m/s^2
 FIELD_UPDATE_PERIOD = 0.1  # s: units move well under a millimetre in this time, the field varies over centimetres
+
+
+def link_spans(shape: Shape) -> tuple[np.ndarray, np.ndarray]:
+    """m, per link: the centre-to-centre distance of its two bodies at rest with its bellows empty, and its bellows'
+    stroke (a unit may override the shape's)."""
+    rest = shape.placed_positions()
+    pitch = np.array([np.linalg.norm(rest[link.front] - rest[link.rear]) for link in shape.links])
+    strokes = np.array([shape.actuator.stroke if link.stroke is None else link.stroke for link in shape.links])
+    return pitch, strokes
 
 
 class Bellows:
@@ -22,7 +30,7 @@ class Bellows:
 
     def __init__(self, shape: Shape, environment: EnvironmentParams):
         self.shape, self.environment = shape, environment
-        self._rest = rest = shape.placed_positions()
+        self._rest = shape.placed_positions()
         """m, each body's position at rest (empty bellows) on the ground."""
         self._links = [(link.front, link.rear) for link in shape.links]
         unit_index = {body: k for k, body in enumerate(shape.units)}
@@ -30,11 +38,8 @@ class Bellows:
                                    dtype=int)
         """for each link, the index (in unit order) of the unit whose pump drives it; -1 for a passive link."""
         self._actuated = self.link_units >= 0
-        self._strokes = np.array([shape.actuator.stroke if link.stroke is None else link.stroke
-                                  for link in shape.links])
-        """m, each bellows' stroke (a unit may override the shape's)."""
-        self._empty_pitch = np.array([np.linalg.norm(rest[f] - rest[r]) for f, r in self._links])
-        """m, centre-to-centre distance of each link's two bodies when its bellows is empty."""
+        self._empty_pitch, self._strokes = link_spans(shape)
+        """m, per link: its bodies' centre-to-centre distance with the bellows empty; the bellows' stroke."""
         self._front = np.array([f for f, _ in self._links], dtype=np.int64)
         self._rear = np.array([r for _, r in self._links], dtype=np.int64)
         own = np.array([body.position for body in shape.bodies], dtype=float)
@@ -185,6 +190,12 @@ class QuasiStatic(Bellows):
     def __init__(self, shape: Shape, environment: EnvironmentParams):
         super().__init__(shape, environment)
         self._factor = np.ones(len(shape.bodies))
+
+    def set_friction_scale(self, scale: float) -> None:
+        """As for every world; a ConfigError if ``scale`` takes friction below the model's range (and nothing
+        changes)."""
+        check_quasistatic_friction(self.shape, self.environment, self.shape.source, scale)
+        super().set_friction_scale(scale)
 
     def relax_ticks(self, lengths, limits, record=None, states=None, first_tick: int | None = None) -> None:
         """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``
