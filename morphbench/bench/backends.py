@@ -141,10 +141,9 @@ def _problem(table: pd.DataFrame, columns, numeric) -> str | None:
     if missing:
         return f"the columns {', '.join(columns)}; no {missing[0]}"
     for column in numeric:
-        values = pd.to_numeric(table[column], errors="coerce").astype(float)
-        if (values.isna() & table[column].notna()).any() or table[column].dtype == object:
+        if not pd.api.types.is_numeric_dtype(table[column]):  # bools are numbers here
             return f"numbers in column {column}, got {table[column].dtype}"
-        if np.isinf(values).any():
+        if np.isinf(table[column].to_numpy(dtype=float, na_value=np.nan)).any():
             return f"no infinite value in column {column}"
     return None
 

@@ -252,7 +252,9 @@ class Store:
 
     def write_plan(self, plan: dict, suite_text: str = "") -> None:
         self.root.mkdir(parents=True, exist_ok=True)
-        text = json.dumps(plan, indent=1, sort_keys=True, default=_json_default)
+        # in the suite's order, not sorted: tables rebuilt from plan.json then have their columns in the order of
+        # those the bench wrote from the suite itself
+        text = json.dumps(plan, indent=1, default=_json_default)
         atomic_write(self.root / PLAN, lambda tmp: Path(tmp).write_text(text + "\n"))
         if suite_text:
             atomic_write(self.root / "suite.toml", lambda tmp: Path(tmp).write_text(suite_text))
