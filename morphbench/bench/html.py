@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import base64
 import html
+import json
 import mimetypes
 import os
 import re
@@ -30,7 +31,6 @@ from urllib.parse import unquote, urlsplit
 from markdown_it import MarkdownIt
 
 from morphbench.bench import provenance
-from morphbench.bench.store import Store
 from morphbench.failures import describe
 from morphbench.files import write_text
 
@@ -41,7 +41,7 @@ def write_html(root: str | Path, videos: bool = True) -> Path:
     """Write ``root/report.html`` from ``root/report.md`` (see the module doc); with ``videos``, render (or reuse)
     one video per experiment first. Returns the page's path."""
     root = Path(root)
-    plan = Store(root).require_plan()
+    plan = json.loads((root / "plan.json").read_text())
     started, failure = time.perf_counter(), None
     try:
         clips = _videos(root, plan) if videos else None
