@@ -16,10 +16,10 @@ import fuzz_results
 import fuzzing
 from fuzz_results import DAMAGES, Inline
 from morphbench.bench import load_suite, run_suite
-from morphbench.bench.store import DAMAGED, JOB_SCHEMAS, TABLES, Store
+from morphbench.bench.store import DAMAGED, JOB_SCHEMAS, TABLES, Store, check_plan
 from morphbench.experiment.records import STEP_COLUMNS, UNIT_COLUMNS
 
-from conftest import run_cli
+from conftest import BENCHMARKS_DIR, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -132,6 +132,11 @@ def test_without_a_usable_plan_the_job_directories_are_still_checked(finished, t
     assert code == 1
     assert out.splitlines()[0].startswith("plan.json: (syntax): expected the JSON plan")
     assert f"run {run.name}: runs/{run.name}/units.parquet: expected a Parquet file" in out
+
+
+@pytest.mark.parametrize("suite", sorted(BENCHMARKS_DIR.glob("*.toml")), ids=lambda path: path.name)
+def test_the_plans_of_the_shipped_suites_pass_the_checks(suite):
+    check_plan(json.loads(json.dumps(load_suite(suite).plan())), str(suite))
 
 
 def test_the_schemas_cover_the_records_columns():

@@ -430,41 +430,56 @@ def check_plan(plan: Any, source: str) -> None:
     _require(plan.get("suite"), str, source, "suite", "the suite's name")
     _require(plan.get("description", ""), str, source, "description", "a string")
     runs = _require(plan.get("runs"), list, source, "runs", "a list of runs")
-    conditions = set()
+    conditions, run_ids, settings = set(), set(), set()
+    reserved = {*_run_columns({"runs": []}), *STEP_COLUMNS}  # a setting of that name would be a second column
     for i, run in enumerate(runs):
         key = f"runs[{i}]"
         _require(run, dict, source, key, "an object of id, condition_id, condition and seed")
-        _name(run.get("id"), source, f"{key}.id")
+        _unique(_name(run.get("id"), source, f"{key}.id"), run_ids, source, f"{key}.id")
         conditions.add(_name(run.get("condition_id"), source, f"{key}.condition_id"))
         condition = _require(run.get("condition"), dict, source, f"{key}.condition", "an object of settings")
         for name, value in condition.items():
-            if not isinstance(value, (str, int, float, bool, type(None))):
-                raise _refused(source, f"{key}.condition.{name}", "a string, number or boolean", value)
+            if name in reserved or not isinstance(value, (str, int, float, bool, type(None))):
+                raise _refused(source, f"{key}.condition.{name}", "a setting (not a column of the tables) whose "
+                               "value is a string, number or boolean", value)
+        for name, kind in (("shape", str), ("learner", str), ("n_units", int)):
+            _require(condition.get(name), kind, source, f"{key}.condition.{name}", f"a {kind.__name__}")
+        settings.update(condition)
         if isinstance(run.get("seed"), bool) or not isinstance(run.get("seed"), int):
             raise _refused(source, f"{key}.seed", "an integer", run.get("seed"))
-    run_ids = {run["id"] for run in runs}
     experiments = _require(plan.get("experiments"), list, source, "experiments", "a list of experiments")
+    names: set[str] = set()
     for i, experiment in enumerate(experiments):
         key = f"experiments[{i}]"
         _require(experiment, dict, source, key, "an object of name, run_ids, condition_ids and varying")
-        _name(experiment.get("name"), source, f"{key}.name")
+        _unique(_name(experiment.get("name"), source, f"{key}.name"), names, source, f"{key}.name")
         _require(experiment.get("description", ""), str, source, f"{key}.description", "a string")
         for field_name, known in (("run_ids", run_ids), ("condition_ids", conditions)):
             values = _require(experiment.get(field_name), list, source, f"{key}.{field_name}", "a list of ids")
             for value in values:
                 if value not in known:
                     raise _refused(source, f"{key}.{field_name}", "ids of the plan's runs", value)
-        for field_name in ("varying", "scans"):
-            values = _require(experiment.get(field_name, []), list, source, f"{key}.{field_name}", "a list of names")
-            if not all(isinstance(v, str) for v in values):
-                raise _refused(source, f"{key}.{field_name}", "a list of names", values)
+            if len(set(values)) < len(values):
+                raise _refused(source, f"{key}.{field_name}", "each id once", values)
+        varying = _require(experiment.get("varying"), list, source, f"{key}.varying", "a list of settings")
+        if not all(isinstance(v, str) and v in settings for v in varying):
+            raise _refused(source, f"{key}.varying", "settings of the plan's runs", varying)
+        listed = _require(experiment.get("scans", []), list, source, f"{key}.scans", "a list of scan names")
+        if not all(isinstance(v, str) for v in listed):
+            raise _refused(source, f"{key}.scans", "a list of scan names", listed)
     scans = _require(plan.get("scans"), list, source, "scans", "a list of scans")
+    scan_ids, scan_names, part_ids = set(), set(), set()
     for i, scan in enumerate(scans):
         key = f"scans[{i}]"
         _require(scan, dict, source, key, "an object of id, name, columns and parts")
-        _name(scan.get("id"), source, f"{key}.id")
-        _name(scan.get("name"), source, f"{key}.name")
+        _unique(_name(scan.get("id"), source, f"{key}.id"), scan_ids, source, f"{key}.id")
+        _unique(_name(scan.get("name"), source, f"{key}.name"), scan_names, source, f"{key}.name")
         columns = _require(scan.get("columns"), dict, source, f"{key}.columns", "an object of the scan's columns")
+        for name, value in columns.items():
+            if name in ("scan_id", "ubar") or name.startswith("dphi_") or not isinstance(
+                    value, (str, int, float, bool, type(None))):
+                raise _refused(source, f"{key}.columns.{name}", "a scan setting (not a column of points) whose "
+                               "value is a string, number or boolean", value)
         for column, low in (("n_units", 2), ("samples", 1)):
             value = columns.get(column)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
@@ -473,7 +488,13 @@ def check_plan(plan: Any, source: str) -> None:
             _require(columns.get(column), str, source, f"{key}.columns.{column}", "a string")
         parts = _require(scan.get("parts"), list, source, f"{key}.parts", "a list of ids")
         for k, part in enumerate(parts):
-            _name(part, source, f"{key}.parts[{k}]")
+            _unique(_name(part, source, f"{key}.parts[{k}]"), part_ids, source, f"{key}.parts[{k}]")
+
+
+def _unique(name: str, seen: set[str], source: str, key: str) -> None:
+    if name in seen:
+        raise _refused(source, key, "a name no other of its kind has", name)
+    seen.add(name)
 
 
 def _require(value: Any, kind: type, source: str, key: str, expected: str) -> Any:
