@@ -110,6 +110,20 @@ def test_each_kind_of_damage_is_found_reported_and_repaired(kind, finished, tmp_
     assert code == 0, out
 
 
+def test_retry_failed_runs_a_job_with_a_damaged_result_again_and_keeps_the_damaged_one(finished, tmp_path):
+    suite, source, expected = finished
+    root = tmp_path / "R"
+    shutil.copytree(source, root)
+    job = sorted((root / "runs").iterdir())[0]
+    (job / "result.json").write_text("[]")
+    assert run_suite(load_suite(suite), root, Inline(), progress=False).tables["runs"].status.eq(DAMAGED).sum() == 1
+    outcome = run_suite(load_suite(suite), root, Inline(), retry_failed=True, progress=False)
+    assert outcome.done == 1
+    assert_same_tables(outcome.tables, expected)
+    kept = list((root / "damaged").glob(f"*/runs/{job.name}/result.json"))
+    assert len(kept) == 1 and kept[0].read_text() == "[]"
+
+
 def test_a_clean_directory_is_clean_and_other_directories_are_not_results(finished, tmp_path, capsys):
     _, source, _ = finished
     code, out, err = run_cli(capsys, "check", str(source))

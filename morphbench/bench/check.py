@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import io
 import os
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,7 +39,6 @@ from morphbench.files import is_dir
 
 REPORT_TABLES = ("curves", "metrics")
 """tables a report computes from the consolidated ones."""
-DAMAGED_DIR = "damaged"
 EXIT_DAMAGED = 1
 
 
@@ -155,36 +153,17 @@ def _difference(stored: pd.DataFrame, expected: pd.DataFrame) -> str | None:
 def move_aside(found: Findings) -> tuple[list[tuple[str, str]], list[str]]:
     """Move the damaged jobs and files of ``found`` aside into DIR/damaged/<time>/ and remove the consolidated
     tables left stale; ((moved, to) relative paths, removed table names)."""
-    root = found.root
-    targets: dict[Path, None] = {}
-    for damage in found.damages:
-        target = Store(root).job_dir(damage.kind, damage.job_id) if damage.job_id else damage.path
-        targets.setdefault(target)
-    folder = _new_folder(root / DAMAGED_DIR)
-    moved = []
-    for target in targets:
-        relative = target.relative_to(root)
-        destination = folder / relative
-        destination.parent.mkdir(parents=True, exist_ok=True)
-        os.replace(target, destination)  # a rename within DIR: whole or not at all
-        moved.append((str(relative), str(destination.relative_to(root))))
+    root, store = found.root, Store(found.root)
+    targets = list(dict.fromkeys(store.job_dir(d.kind, d.job_id) if d.job_id else d.path for d in found.damages))
+    moved = [(str(a.relative_to(root)), str(b.relative_to(root))) for a, b in zip(targets, store.set_aside(targets))]
     removed = []
-    if any(not str(relative).endswith(".parquet") for relative, _ in moved):  # jobs, plan or a job folder went
+    if any(not relative.endswith(".parquet") for relative, _ in moved):  # jobs, plan or a job folder went
         for name in (*TABLES, *REPORT_TABLES):
             path = root / f"{name}.parquet"
             if path.is_file():
                 path.unlink()  # rebuilt from the job directories by the next bench or report
                 removed.append(path.name)
     return moved, removed
-
-
-def _new_folder(parent: Path) -> Path:
-    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
-    folder, k = parent / stamp, 1
-    while folder.exists():
-        folder, k = parent / f"{stamp}-{k}", k + 1
-    folder.mkdir(parents=True)
-    return folder
 
 
 def run(directory: str | Path, repair: bool = False) -> int:

@@ -43,6 +43,7 @@ import math
 import os
 import re
 import shutil
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -65,6 +66,8 @@ STATUSES = ("done", "failed")
 """what a finished job's result.json says; in the tables a job may also be 'missing' (no directory yet) or
 DAMAGED."""
 DAMAGED = "damaged"
+DAMAGED_DIR = "damaged"
+"""DIR/damaged/<time>/: damaged jobs and files set aside (``Store.set_aside``), never deleted."""
 TABLES = ("runs", "steps", "units", "scans", "jobs")
 """the consolidated tables, rebuilt from the job directories by ``consolidate``."""
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,199}$")
@@ -198,7 +201,9 @@ class Store:
                     "traceback": result.get("traceback"), "wall_time_s": result.get("wall_time_s"),
                     "summary": result.get("summary")}
             (tmp / RESULT).write_text(json.dumps(meta, indent=2, sort_keys=True, default=_json_default) + "\n")
-            if final.exists():  # a failed job run again (--retry-failed): move the old one out of the way first
+            if self.status(job.kind, job.id) == DAMAGED:  # run again (--retry-failed): kept, as check --repair does
+                self.set_aside([final])
+            elif final.exists():  # a failed job run again (--retry-failed): move the old one out of the way first
                 old = final.parent / f".tmp-old-{job.id}-{os.getpid()}"
                 os.replace(final, old)
                 shutil.rmtree(old)
@@ -207,6 +212,21 @@ class Store:
             if tmp.exists():
                 shutil.rmtree(tmp)
         return final
+
+    def set_aside(self, paths: list[Path]) -> list[Path]:
+        """Move ``paths`` (inside the directory) into a new DIR/damaged/<UTC time>/ under their own relative paths,
+        each whole (a rename); their new paths."""
+        stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+        folder, k = self.root / DAMAGED_DIR / stamp, 1
+        while folder.exists():
+            folder, k = self.root / DAMAGED_DIR / f"{stamp}-{k}", k + 1
+        moved = []
+        for path in paths:
+            destination = folder / path.relative_to(self.root)
+            destination.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(path, destination)
+            moved.append(destination)
+        return moved
 
     def clean_temporaries(self) -> int:
         """Remove what a killed bench left half-written (temporary job directories and files)."""
