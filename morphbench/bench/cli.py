@@ -106,6 +106,7 @@ def cmd_bench(args) -> int:
     if not args.no_report:
         path = build_report(args.out, outcome.tables, videos=not args.no_videos)
         print(f"report in {path} and {path.with_suffix('.html')}")
+    _warn_damaged(outcome.tables["jobs"], args.out)
     runs = outcome.tables["runs"]
     return EXIT_FAILED_RUNS if (runs.status == "failed").any() or outcome.failed else 0
 
@@ -114,7 +115,7 @@ def cmd_report(args) -> int:
     import pandas as pd
 
     from morphbench.bench.report import build_report
-    from morphbench.bench.store import DAMAGED, Store
+    from morphbench.bench.store import Store
     from morphbench.errors import ConfigError
 
     if not os.path.isdir(args.dir):
@@ -129,12 +130,18 @@ def cmd_report(args) -> int:
         store.write_table(TABLE, compare(*args.compare))
     path = build_report(args.dir, videos=not args.no_videos)
     print(f"report in {path} and {path.with_suffix('.html')}")
-    jobs = pd.read_parquet(store.root / "jobs.parquet")  # as the report just rebuilt it
+    _warn_damaged(pd.read_parquet(store.root / "jobs.parquet"), args.dir)  # the jobs table the report rebuilt
+    return 0
+
+
+def _warn_damaged(jobs, directory: str) -> None:
+    """One line on stderr when the tables left damaged jobs out (morphbench.bench.store)."""
+    from morphbench.bench.store import DAMAGED
+
     damaged = int((jobs.status == DAMAGED).sum())
     if damaged:
-        print(f"morphbench: warning: {damaged} damaged jobs left out of the report (listed under 'Damaged jobs' in "
-              f"{path}; 'morphbench check {args.dir} --repair' moves them aside)", file=sys.stderr)
-    return 0
+        print(f"morphbench: warning: {damaged} damaged jobs left out of the tables and the report ('morphbench check "
+              f"{directory}' lists them, with --repair it moves them aside)", file=sys.stderr)
 
 
 def cmd_check(args) -> int:
