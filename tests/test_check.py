@@ -148,6 +148,10 @@ def test_without_a_usable_plan_the_job_directories_are_still_checked(finished, t
     assert code == 1
     assert out.splitlines()[0].startswith("plan.json: (syntax): expected the JSON plan")
     assert f"run {run.name}: runs/{run.name}/units.parquet: expected a Parquet file" in out
+    (root / "plan.json").unlink()
+    code, out, err = run_cli(capsys, "check", str(root), "--repair")
+    assert (code, err) == (1, "") and out.startswith("plan.json: expected the plan 'morphbench bench' writes, got none")
+    assert f"moved runs/{run.name} to damaged/" in out and out.rstrip().endswith(f"--out {root} --resume")
 
 
 @pytest.mark.parametrize("suite", sorted(BENCHMARKS_DIR.glob("*.toml")), ids=lambda path: path.name)

@@ -53,10 +53,6 @@ class Findings:
     jobs: int = 0
     """job directories checked."""
 
-    @property
-    def jobs_damaged(self) -> bool:
-        return any(d.job_id for d in self.damages)
-
 
 def check(root: str | Path) -> Findings:
     """Every damaged job and file of the results directory ``root`` (see the module doc); ConfigError if ``root`` is
@@ -154,7 +150,8 @@ def move_aside(found: Findings) -> tuple[list[tuple[str, str]], list[str]]:
     """Move the damaged jobs and files of ``found`` aside into DIR/damaged/<time>/ and remove the consolidated
     tables left stale; ((moved, to) relative paths, removed table names)."""
     root, store = found.root, Store(found.root)
-    targets = list(dict.fromkeys(store.job_dir(d.kind, d.job_id) if d.job_id else d.path for d in found.damages))
+    targets = [path for path in dict.fromkeys(store.job_dir(d.kind, d.job_id) if d.job_id else d.path
+                                              for d in found.damages) if os.path.lexists(path)]  # not a missing plan
     moved = [(str(a.relative_to(root)), str(b.relative_to(root))) for a, b in zip(targets, store.set_aside(targets))]
     removed = []
     if any(not relative.endswith(".parquet") for relative, _ in moved):  # jobs, plan or a job folder went
