@@ -19,9 +19,11 @@ each event's recovery (metrics.event_recovery), and into ``DIR/figures/`` (morph
   one colour per condition (when the runs recorded one: runs stored before steps.parquet had ``x_m`` are left out);
 and ``scan-<name>.png`` per scan (a curve for 2 units, a heat map for 3, a histogram beyond). ``DIR/report.md``
 holds the tables and figures, a comparison of decentralized learners with centralized controllers when the suite
-has both, the paper's claims checked against the tables (morphbench.bench.claims) and the failed runs with their
-errors. A figure the tables cannot give (an experiment without finished runs, results stored before a column
-existed, an unfinished scan) is left out with a line saying why.
+has both, the paper's claims checked against the tables (morphbench.bench.claims), the failed runs with their
+errors and the damaged jobs (morphbench.bench.store: left out of every table, each with its file and what was
+expected). A damaged plan.json, ``runs/`` or backends.parquet is a ConfigError before anything is written. A figure
+the tables cannot give (an experiment without finished runs, results stored before a column existed, an unfinished
+scan) is left out with a line saying why.
 """
 
 from __future__ import annotations
@@ -76,7 +78,8 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None,
     n_missing = int((runs.status == "missing").sum())
     damaged = tables["jobs"][tables["jobs"].status == DAMAGED]
     wall = tables["jobs"].wall_time_s.sum()
-    n_damaged = f", {int((runs.status == DAMAGED).sum())} damaged" if len(damaged) else ""
+    n_damaged = int((runs.status == DAMAGED).sum())
+    n_damaged = f", {n_damaged} damaged" if n_damaged else ""
     lines += [f"{len(runs)} runs: {n_done} done, {n_failed} failed, {n_missing} not run yet{n_damaged}; "
               f"{len(plan['scans'])} scans. Compute time {wall / 60:.1f} min (sum over jobs). Report written "
               f"{time.strftime('%Y-%m-%d %H:%M')} from `{store.root}`.", "",
