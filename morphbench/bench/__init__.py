@@ -11,10 +11,11 @@
     figures.py    the report's figures of an experiment (Ubar distribution, acceptance, scaling, events,
                   landscapes with the phases tried, start and end positions), drawn from tables
     claims.py     the paper's quantitative statements, each measured on the stored tables
+    check.py      morphbench check: damaged jobs and files of a results directory; --repair moves them aside
     report.py     figures and report.md, rebuilt from the store
     html.py       report.html: report.md as one self-contained page (figures, videos inline), suite file, versions
     videos.py     one short video per experiment, replayed off-screen from a stored run (DIR/videos/)
-    cli.py        the `bench` and `report` subcommands (add_bench_commands)
+    cli.py        the `bench`, `report` and `check` subcommands (add_bench_commands)
 
 The names below are imported on first use (``morphbench.lazy``): the metrics, figures, claims and the report need no
 simulator.

@@ -8,7 +8,8 @@ values and the difference b - a.
 Final Ubar has a standard error over seeds in each directory; the pair **disagrees** when the difference exceeds
 ``DISAGREE_SE`` combined standard errors, sqrt(std_a^2 / n_a + std_b^2 / n_b), so a difference that seed noise explains
 is not called one. ``morphbench report DIR --compare A B`` keeps the table as ``DIR/backends.parquet``, and the
-report of DIR shows it from then on (``section``).
+report of DIR shows it from then on (``section``). A table that is unreadable, lacks a column ``compare`` or a report
+reads, or holds an infinity is a ConfigError naming the file: nothing is compared or written.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import pandas as pd
 
 from morphbench.bench import metrics as M
 from morphbench.errors import ConfigError
+from morphbench.failures import describe
 from morphbench.files import is_file
 
 COMPARED = {"final_ubar": "final Ubar", "u_eq": "U_eq", "steps_to_threshold": f"steps to {M.THRESHOLD:g} U_eq",
@@ -30,6 +32,12 @@ DISAGREE_SE = 2.0
 """combined standard errors of final Ubar beyond which two backends disagree on a condition."""
 TABLE = "backends"
 """DIR/backends.parquet: the comparison a report shows."""
+SHOWN = ("physics_a", "physics_b", "runs_a", "runs_b", "disagree",
+         *(f"{column}_{side}" for column in COMPARED for side in ("a", "b", "diff")))
+"""the columns of backends.parquet a report shows (``section``)."""
+_READ = {"metrics": ("condition_id", "physics", "runs", "failed", "missing", "final_ubar_std", *COMPARED),
+         "runs": ("condition_id", "experiments")}
+"""the columns ``compare`` reads of each table of a results directory."""
 _NOT_CONDITION = {"condition_id", "physics", "shape_id", "environment_id"}
 _LABEL_COLUMNS = ("experiments", "shape", "learner", "step_size", "noise", "environment", "events", "steps")
 
@@ -82,22 +90,62 @@ def section(table: pd.DataFrame) -> list[str]:
     if worse.empty:
         lines += [f"The backends agree on every one of the {len(table)} conditions within seed noise.", ""]
     else:
-        where = "; ".join(f"{_text(row.get('experiments', ''))} {row.learner}: {row.final_ubar_a:.2f} against "
+        where = "; ".join(f"{_text(row.get('experiments', ''))} {_text(row.get('learner', ''))}: "
+                          f"{row.final_ubar_a:.2f} against "
                           f"{row.final_ubar_b:.2f} mm/cycle" for _, row in worse.iterrows())
         lines += [f"They disagree on {len(worse)} of {len(table)} conditions: {where}.", ""]
     return lines
 
 
+def read_table(root: str | Path) -> pd.DataFrame | None:
+    """``root/backends.parquet``, checked (``table_problem``); None if there is none, ConfigError if it is damaged."""
+    path = Path(root) / f"{TABLE}.parquet"
+    return _table(path, table_problem) if is_file(path) else None
+
+
+def table_problem(table: pd.DataFrame) -> str | None:
+    """What a backends table lacks for a report (columns of SHOWN, numbers finite or NaN), or None."""
+    return _problem(table, SHOWN, [c for c in SHOWN if not c.startswith("physics_")])
+
+
 def _read(directory: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """A results directory's metrics and runs tables, with the columns ``compare`` reads."""
     root = Path(directory)
     tables = []
-    for name in ("metrics", "runs"):
+    for name, columns in _READ.items():
         path = root / f"{name}.parquet"
         if not is_file(path):
             raise ConfigError(str(root), f"{name}.parquet", "a results directory with its report built (morphbench "
                               "bench, or morphbench report DIR)", "no such file")
-        tables.append(pd.read_parquet(path))
+        numeric = [c for c in columns if c not in ("condition_id", "physics", "experiments")]
+        tables.append(_table(path, lambda table, c=columns, n=numeric: _problem(table, c, n)))
     return tables[0], tables[1]
+
+
+def _table(path: Path, problem) -> pd.DataFrame:
+    """A Parquet table whose ``problem(table)`` is None; else ConfigError naming the file."""
+    try:
+        table = pd.read_parquet(path)
+    except Exception as exc:  # noqa: BLE001 - whatever Arrow raises on a damaged file
+        raise ConfigError(str(path.parent), path.name, f"a Parquet table ({describe(exc, where=False)[:160]})"
+                          ) from None
+    reason = problem(table)
+    if reason:
+        raise ConfigError(str(path.parent), path.name, reason)
+    return table
+
+
+def _problem(table: pd.DataFrame, columns, numeric) -> str | None:
+    """Why ``table`` lacks one of ``columns`` or holds something but numbers (finite or NaN) in ``numeric``."""
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        return f"the columns {', '.join(columns)}; no {missing[0]}"
+    for column in numeric:
+        if not pd.api.types.is_numeric_dtype(table[column]):  # bools are numbers here
+            return f"numbers in column {column}, got {table[column].dtype}"
+        if np.isinf(table[column].to_numpy(dtype=float, na_value=np.nan)).any():
+            return f"no infinite value in column {column}"
+    return None
 
 
 def _experiments(runs: pd.DataFrame) -> dict[str, str]:

@@ -3,6 +3,7 @@
     morphbench bench SUITE --out DIR [--workers N | --scheduler ADDRESS] [--resume] [--retry-failed] [--quiet]
                      [--no-report | --no-videos]
     morphbench report DIR [--compare A B] [--no-videos]
+    morphbench check DIR [--repair]
 """
 
 from __future__ import annotations
@@ -58,6 +59,17 @@ def add_bench_commands(subparsers) -> None:
                         help="no videos in report.html (nothing is simulated)")
     report.set_defaults(func=cmd_report)
 
+    check = subparsers.add_parser(
+        "check", help="check a results directory against its plan; --repair moves damaged jobs aside",
+        description="Check every job directory (result.json, each Parquet table's columns, types and values), "
+                    "plan.json and the consolidated tables of DIR; print each damaged job or file with what was "
+                    "expected, one line each. Exit 0 if clean, 1 if damaged, 2 if DIR is not a results directory.")
+    check.add_argument("dir", help="results directory written by 'morphbench bench'")
+    check.add_argument("--repair", action="store_true",
+                       help="move damaged jobs and files into DIR/damaged/<time>/ (nothing is deleted) and drop the "
+                            "tables left stale, so that 'morphbench bench SUITE --out DIR' runs those jobs again")
+    check.set_defaults(func=cmd_check)
+
 
 def cmd_bench(args) -> int:
     from morphbench.bench.executors import DaskExecutor, LocalExecutor, WorkerLost, connect
@@ -94,25 +106,48 @@ def cmd_bench(args) -> int:
     if not args.no_report:
         path = build_report(args.out, outcome.tables, videos=not args.no_videos)
         print(f"report in {path} and {path.with_suffix('.html')}")
+    _warn_damaged(outcome.tables["jobs"], args.out)
     runs = outcome.tables["runs"]
     return EXIT_FAILED_RUNS if (runs.status == "failed").any() or outcome.failed else 0
 
 
 def cmd_report(args) -> int:
+    import pandas as pd
+
     from morphbench.bench.report import build_report
+    from morphbench.bench.store import Store
     from morphbench.errors import ConfigError
 
     if not os.path.isdir(args.dir):
         raise ConfigError("report", args.dir, "a results directory written by 'morphbench bench'"
                                               + (" (this is a file)" if os.path.exists(args.dir) else ""))
+    store = Store(args.dir)
+    store.require_plan()  # a damaged results directory refuses before anything is compared or written
+    store.require_layout()
     if args.compare:
         from morphbench.bench.backends import TABLE, compare
-        from morphbench.bench.store import Store
 
-        Store(args.dir).write_table(TABLE, compare(*args.compare))
+        store.write_table(TABLE, compare(*args.compare))
     path = build_report(args.dir, videos=not args.no_videos)
     print(f"report in {path} and {path.with_suffix('.html')}")
+    _warn_damaged(pd.read_parquet(store.root / "jobs.parquet"), args.dir)  # the jobs table the report rebuilt
     return 0
+
+
+def _warn_damaged(jobs, directory: str) -> None:
+    """One line on stderr when the tables left damaged jobs out (morphbench.bench.store)."""
+    from morphbench.bench.store import DAMAGED
+
+    damaged = int((jobs.status == DAMAGED).sum())
+    if damaged:
+        print(f"morphbench: warning: {damaged} damaged jobs left out of the tables and the report ('morphbench check "
+              f"{directory}' lists them, with --repair it moves them aside)", file=sys.stderr)
+
+
+def cmd_check(args) -> int:
+    from morphbench.bench.check import run
+
+    return run(args.dir, repair=args.repair)
 
 
 def _positive_int(text: str) -> int:

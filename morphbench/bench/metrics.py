@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 from morphbench.bench.identity import environment_id
-from morphbench.bench.store import SUMMARY_COLUMNS
+from morphbench.bench.store import DAMAGED, SUMMARY_COLUMNS
 from morphbench.experiment.records import final_value
 from morphbench.learning.base import wrap_phases
 from morphbench.params import EnvironmentParams
@@ -233,7 +233,7 @@ def condition_metrics(steps: pd.DataFrame, runs: pd.DataFrame, scans: pd.DataFra
         row = members.iloc[0][condition_cols].to_dict()
         row["runs"] = len(members)
         row["failed"] = int((members.status == "failed").sum())
-        row["missing"] = int((members.status == "missing").sum())
+        row["missing"] = int(members.status.isin(("missing", DAMAGED)).sum())  # no result to use either way
         mine = steps[steps.condition_id == condition_id]
         per_run = [g.sort_values("step") for _, g in mine.groupby("run_id", sort=False)]
         finals = np.array([final_value(g.step, g[column]) for g in per_run])

@@ -19,9 +19,11 @@ each event's recovery (metrics.event_recovery), and into ``DIR/figures/`` (morph
   one colour per condition (when the runs recorded one: runs stored before steps.parquet had ``x_m`` are left out);
 and ``scan-<name>.png`` per scan (a curve for 2 units, a heat map for 3, a histogram beyond). ``DIR/report.md``
 holds the tables and figures, a comparison of decentralized learners with centralized controllers when the suite
-has both, the paper's claims checked against the tables (morphbench.bench.claims) and the failed runs with their
-errors. A figure the tables cannot give (an experiment without finished runs, results stored before a column
-existed, an unfinished scan) is left out with a line saying why.
+has both, the paper's claims checked against the tables (morphbench.bench.claims), the failed runs with their
+errors and the damaged jobs (morphbench.bench.store: left out of every table, each with its file and what was
+expected). A damaged plan.json, ``runs/`` or backends.parquet is a ConfigError before anything is written. A figure
+the tables cannot give (an experiment without finished runs, results stored before a column existed, an unfinished
+scan) is left out with a line saying why.
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ from morphbench.bench import claims as C  # noqa: E402
 from morphbench.bench import figures as F  # noqa: E402
 from morphbench.bench import metrics as M  # noqa: E402
 from morphbench.bench.html import write_html  # noqa: E402
-from morphbench.bench.store import Store  # noqa: E402
+from morphbench.bench.store import DAMAGED, Store  # noqa: E402
 from morphbench.files import write_text  # noqa: E402
 
 MAX_POSITION_RUNS = 6
@@ -55,7 +57,9 @@ MAX_CURVES = 12
 def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None, videos: bool = False) -> Path:
     """Write curves.parquet, metrics.parquet, figures/ and report.md into ``out``; returns the report's path."""
     store = Store(out)
-    plan = store.require_plan()
+    plan = store.require_plan()  # a damaged plan, runs/ or backends table refuses before anything is written
+    store.require_layout()
+    backends = B.read_table(store.root)
     tables = tables or store.consolidate(plan)
     runs, steps, scans = tables["runs"], tables["steps"], tables["scans"]
     curves = M.curves(steps)
@@ -72,9 +76,12 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None,
         lines += [plan["description"], ""]
     n_done, n_failed = int((runs.status == "done").sum()), int((runs.status == "failed").sum())
     n_missing = int((runs.status == "missing").sum())
+    damaged = tables["jobs"][tables["jobs"].status == DAMAGED]
     wall = tables["jobs"].wall_time_s.sum()
-    lines += [f"{len(runs)} runs: {n_done} done, {n_failed} failed, {n_missing} not run yet; {len(plan['scans'])} "
-              f"scans. Compute time {wall / 60:.1f} min (sum over jobs). Report written "
+    n_damaged = int((runs.status == DAMAGED).sum())
+    n_damaged = f", {n_damaged} damaged" if n_damaged else ""
+    lines += [f"{len(runs)} runs: {n_done} done, {n_failed} failed, {n_missing} not run yet{n_damaged}; "
+              f"{len(plan['scans'])} scans. Compute time {wall / 60:.1f} min (sum over jobs). Report written "
               f"{time.strftime('%Y-%m-%d %H:%M')} from `{store.root}`.", "",
               "Ubar is the true mean velocity of the active units (mm/cycle), whatever the learners measured. "
               "Final Ubar: mean over the last 10% of steps, mean +- std over seeds. U_eq, U_0, k_0: fit of "
@@ -98,9 +105,8 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None,
     for experiment in plan["experiments"]:
         lines += _experiment_section(experiment, context)
     lines += _decentralization_section(metrics, steps, central)
-    backends = store.root / f"{B.TABLE}.parquet"
-    if backends.is_file():
-        lines += B.section(pd.read_parquet(backends))
+    if backends is not None:
+        lines += B.section(backends)
     if plan["scans"]:
         lines += ["## Scans", ""]
         lines += _scan_section(plan, scans, figures)
@@ -114,10 +120,24 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None,
         for _, row in failed_scans.iterrows():
             lines.append(f"| scan part {row.job_id} | | | {_cell(row.error)} |")
         lines.append("")
+    lines += _damaged_section(damaged)
     path = store.root / "report.md"
     write_text(path, "\n".join(lines) + "\n")
     write_html(store.root, videos=videos)  # report.html: this report as one page, with a video per experiment
     return path
+
+
+def _damaged_section(damaged: pd.DataFrame) -> list[str]:
+    """The jobs whose directories are damaged (morphbench.bench.store), left out of every table and figure."""
+    if not len(damaged):
+        return []
+    lines = ["## Damaged jobs", "",
+             f"{len(damaged)} jobs have a directory whose files are not what 'morphbench bench' writes: they are left "
+             "out of every table and figure above (counted as missing). `morphbench check DIR --repair` moves them "
+             "aside, and `morphbench bench SUITE --out DIR` then runs them again.", "",
+             "| job | file: what was expected |", "|---|---|"]
+    lines += [f"| {row.kind} {row.job_id} | {_cell(row.error)} |" for _, row in damaged.iterrows()]
+    return lines + [""]
 
 
 @dataclass

@@ -7,7 +7,7 @@ Layout of ``DIR``::
     runs/<run_id>/       one finished run: steps.parquet, units.parquet (the RunRecords schema), result.json
     scans/<part_id>/     one finished part of a scan: points.parquet (dphi_2.., ubar), result.json
     runs.parquet         one row per run of the suite: run_id, condition_id, experiments, condition columns, seed,
-                         status ('done' | 'failed' | 'missing'), error, final_ubar, final_ubar_true,
+                         status ('done' | 'failed' | 'missing' | 'damaged'), error, final_ubar, final_ubar_true,
                          mean_acceptance, sensor_error, final_u_heading, turning_rate_deg_per_cycle,
                          centralized (1.0 for a centralized controller, 0.0 for per-unit learners; NaN, like every
                          summary value, for a run not done or stored before the value existed), wall_time_s
@@ -21,11 +21,18 @@ Layout of ``DIR``::
     curves.parquet, metrics.parquet, figures/, report.md    (morphbench.bench.report)
     report.html, videos/ the report as one self-contained page, a video of one run per experiment
                          (morphbench.bench.html, morphbench.bench.videos)
+    damaged/<time>/      what 'morphbench check DIR --repair' moved aside, under its own relative path
 
 A job directory is assembled under a temporary name and renamed into place, so it exists whole or not at all; a
 job whose directory exists is finished (done or failed: ``result.json`` says which) and is skipped when the suite
-is run again into the same directory. The consolidated tables are rebuilt from the job directories and the plan,
-always in plan order, so they are the same whichever executor ran the jobs and in whatever order they finished.
+is run again into the same directory. What is read back is checked, never trusted: a job whose result.json or
+tables are not what this module and experiment/records.py write (unreadable, another schema, an unknown status,
+an infinite value, rows that disagree with its summary) is **damaged**: ``load`` says which file and why, the
+tables list it with status 'damaged' and leave its rows out, and ``morphbench check DIR --repair``
+(morphbench.bench.check) moves it aside to be run again. A plan.json that is not one ``bench`` writes, or that names
+an experiment, scan or job by anything but a plain name (a path would put figures outside DIR), is a ConfigError.
+The consolidated tables are rebuilt from the job directories and the plan, always in plan order, so they are the
+same whichever executor ran the jobs and in whatever order they finished.
 ``wall_time_s`` is the only column that changes from one execution to the next.
 """
 
@@ -34,7 +41,10 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import shutil
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +54,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from morphbench.errors import ConfigError
+from morphbench.failures import describe
 from morphbench.experiment.records import STEP_COLUMNS, atomic_write
 
 KIND_DIRS = {"run": "runs", "scan": "scans"}
@@ -51,6 +62,78 @@ RESULT = "result.json"
 PLAN = "plan.json"
 SUMMARY_COLUMNS = ("final_ubar", "final_ubar_true", "mean_acceptance", "sensor_error", "final_u_heading",
                    "turning_rate_deg_per_cycle", "centralized")
+STATUSES = ("done", "failed")
+"""what a finished job's result.json says; in the tables a job may also be 'missing' (no directory yet) or
+DAMAGED."""
+DAMAGED = "damaged"
+DAMAGED_DIR = "damaged"
+"""DIR/damaged/<time>/: damaged jobs and files set aside (``Store.set_aside``), never deleted."""
+TABLES = ("runs", "steps", "units", "scans", "jobs")
+"""the consolidated tables, rebuilt from the job directories by ``consolidate``."""
+SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,199}$")
+"""a name of plan.json that becomes a file name (an experiment's figures, a job's directory): never a path, and
+short enough for the longest file made from it."""
+REPAIR = "morphbench check DIR --repair moves it aside"
+
+INT, FLOAT, STRING, BOOL = "int64", "double", "string", "bool"
+JOB_SCHEMAS: dict[str, dict[str, tuple[str, bool, bool]]] = {
+    "steps": {"step": (INT, True, True), "time_s": (FLOAT, True, True), "ubar": (FLOAT, True, True),
+              "ubar_true": (FLOAT, True, True), "acceptance": (FLOAT, True, False), "event": (STRING, False, True),
+              "x_m": (FLOAT, False, False), "y_m": (FLOAT, False, False), "heading_rad": (FLOAT, False, False),
+              "u_heading": (FLOAT, False, False)},
+    "units": {"step": (INT, True, True), "unit": (INT, True, True), "position": (INT, False, True),
+              "piece": (INT, False, True), "phase_tried": (FLOAT, True, False), "phase_kept": (FLOAT, True, False),
+              "u_measured": (FLOAT, True, False), "u_true": (FLOAT, True, False), "accepted": (BOOL, True, True),
+              "x_m": (FLOAT, False, False), "y_m": (FLOAT, False, False), "heading_rad": (FLOAT, False, False)},
+}
+"""The tables of a run's directory (experiment/records.py), column -> (Arrow type, required, finite). Columns the
+records gained later are not required (results stored before them lack them); no float is ever infinite, and NaN
+only where 'finite' is False. A scan part's points.parquet: ``points_schema``."""
+
+
+def points_schema(n_units: int) -> dict[str, tuple[str, bool, bool]]:
+    return {**{f"dphi_{i}": (FLOAT, True, True) for i in range(2, n_units + 1)}, "ubar": (FLOAT, True, True)}
+
+
+@dataclass(frozen=True)
+class Damage:
+    """A damaged file or directory of a results directory: which, what was expected there, and its job if any."""
+
+    path: Path
+    reason: str
+    """'expected ..., got ...' or 'KEY: expected ...'."""
+    kind: str | None = None
+    job_id: str | None = None
+
+    def where(self, root: Path) -> str:
+        """The path relative to ``root``."""
+        try:
+            return str(self.path.relative_to(root))
+        except ValueError:
+            return str(self.path)
+
+    def line(self, root: Path) -> str:
+        job = f"{self.kind} {self.job_id}: " if self.job_id else ""
+        return f"{job}{self.where(root)}: {self.reason}"
+
+
+@dataclass
+class Loaded:
+    """A job as its directory holds it: status 'missing', 'done', 'failed' or DAMAGED (then ``damage`` says why),
+    its result.json and, done, its tables."""
+
+    status: str
+    result: dict | None = None
+    tables: dict[str, pa.Table] = field(default_factory=dict)
+    damage: Damage | None = None
+
+
+class _Bad(Exception):
+    """What ``Store.load`` found wrong in one file (becomes a Damage): what was expected, and what was found."""
+
+    def __init__(self, path: Path, reason: str):
+        super().__init__(reason)
+        self.path, self.reason = path, reason
 
 
 class Store:
@@ -62,17 +145,44 @@ class Store:
     def job_dir(self, kind: str, job_id: str) -> Path:
         return self.root / KIND_DIRS[kind] / job_id
 
-    def result(self, kind: str, job_id: str) -> dict | None:
-        """The job's result.json, or None if the job has not finished."""
-        path = self.job_dir(kind, job_id) / RESULT
+    def load(self, kind: str, job_id: str, n_units: int | None = None, tables: bool = True) -> Loaded:
+        """The job's directory, checked (see the module doc); with ``tables``, a done job's tables read too
+        (``n_units``: a scan's, for its points' columns; None: any number of dphi columns)."""
+        directory = self.job_dir(kind, job_id)
         try:
-            return json.loads(path.read_text())
-        except FileNotFoundError:
-            return None
+            result = _read_result(directory, kind, job_id)
+            if result is None:
+                return Loaded("missing")
+            read = {}
+            if tables and result["status"] == "done":
+                names = ("steps", "units") if kind == "run" else ("points",)
+                for name in names:
+                    read[name] = _read_table(directory / f"{name}.parquet", n_units)
+                if kind == "run":
+                    _check_counts(read, result["summary"], directory)
+            return Loaded(result["status"], result, read)
+        except _Bad as bad:
+            return Loaded(DAMAGED, damage=Damage(bad.path, f"expected {bad.reason}", kind, job_id))
 
     def status(self, kind: str, job_id: str) -> str | None:
-        result = self.result(kind, job_id)
-        return None if result is None else result["status"]
+        """'done', 'failed' or DAMAGED from the job's result.json alone; None if the job has not run (no directory)."""
+        self.require_layout()
+        status = self.load(kind, job_id, tables=False).status
+        return None if status == "missing" else status
+
+    def layout_damage(self) -> list[Damage]:
+        """``runs`` or ``scans`` that is there but is not a directory."""
+        found = []
+        for sub in KIND_DIRS.values():
+            path = self.root / sub
+            if (path.exists() or path.is_symlink()) and not path.is_dir():
+                found.append(Damage(path, "expected a directory of job directories, got a file"))
+        return found
+
+    def require_layout(self) -> None:
+        for damage in self.layout_damage():
+            raise ConfigError(str(self.root), damage.where(self.root), f"a directory of job directories, not a file "
+                              f"({REPAIR})")
 
     def save(self, job, result: dict) -> Path:
         """Write one job's tables and result.json into its directory, atomically (temp directory + rename)."""
@@ -91,7 +201,9 @@ class Store:
                     "traceback": result.get("traceback"), "wall_time_s": result.get("wall_time_s"),
                     "summary": result.get("summary")}
             (tmp / RESULT).write_text(json.dumps(meta, indent=2, sort_keys=True, default=_json_default) + "\n")
-            if final.exists():  # a failed job run again (--retry-failed): move the old one out of the way first
+            if self.status(job.kind, job.id) == DAMAGED:  # run again (--retry-failed): kept, as check --repair does
+                self.set_aside([final])
+            elif final.exists():  # a failed job run again (--retry-failed): move the old one out of the way first
                 old = final.parent / f".tmp-old-{job.id}-{os.getpid()}"
                 os.replace(final, old)
                 shutil.rmtree(old)
@@ -101,11 +213,20 @@ class Store:
                 shutil.rmtree(tmp)
         return final
 
-    def read(self, kind: str, job_id: str, name: str) -> pd.DataFrame:
-        return pd.read_parquet(self.job_dir(kind, job_id) / f"{name}.parquet")
-
-    def _arrow(self, kind: str, job_id: str, name: str) -> pa.Table:
-        return pq.read_table(self.job_dir(kind, job_id) / f"{name}.parquet")
+    def set_aside(self, paths: list[Path]) -> list[Path]:
+        """Move ``paths`` (inside the directory) into a new DIR/damaged/<UTC time>/ under their own relative paths,
+        each whole (a rename); their new paths."""
+        stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+        folder, k = self.root / DAMAGED_DIR / stamp, 1
+        while folder.exists():
+            folder, k = self.root / DAMAGED_DIR / f"{stamp}-{k}", k + 1
+        moved = []
+        for path in paths:
+            destination = folder / path.relative_to(self.root)
+            destination.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(path, destination)
+            moved.append(destination)
+        return moved
 
     def clean_temporaries(self) -> int:
         """Remove what a killed bench left half-written (temporary job directories and files)."""
@@ -124,10 +245,23 @@ class Store:
     # --- the plan ---
 
     def read_plan(self) -> dict | None:
+        """plan.json, checked (``check_plan``); None if there is none. A damaged one is a ConfigError naming it."""
+        path = self.root / PLAN
         try:
-            return json.loads((self.root / PLAN).read_text())
-        except FileNotFoundError:
+            text = path.read_bytes()
+        except (FileNotFoundError, NotADirectoryError):
             return None
+        except IsADirectoryError:
+            raise ConfigError(str(path), "(file)",
+                              f"the JSON plan 'morphbench bench' writes, not a directory ({REPAIR})") from None
+        except OSError as exc:
+            raise ConfigError(str(path), "(file)", f"a readable file ({exc.strerror})") from None
+        try:
+            plan = json.loads(text)
+        except (ValueError, RecursionError):  # UnicodeDecodeError is a ValueError
+            raise ConfigError(str(path), "(syntax)", f"the JSON plan 'morphbench bench' writes ({REPAIR})") from None
+        check_plan(plan, str(path))
+        return plan
 
     def require_plan(self) -> dict:
         plan = self.read_plan()
@@ -138,7 +272,9 @@ class Store:
 
     def write_plan(self, plan: dict, suite_text: str = "") -> None:
         self.root.mkdir(parents=True, exist_ok=True)
-        text = json.dumps(plan, indent=1, sort_keys=True, default=_json_default)
+        # in the suite's order, not sorted: tables rebuilt from plan.json then have their columns in the order of
+        # those the bench wrote from the suite itself
+        text = json.dumps(plan, indent=1, default=_json_default)
         atomic_write(self.root / PLAN, lambda tmp: Path(tmp).write_text(text + "\n"))
         if suite_text:
             atomic_write(self.root / "suite.toml", lambda tmp: Path(tmp).write_text(suite_text))
@@ -146,8 +282,10 @@ class Store:
     # --- consolidated tables ---
 
     def consolidate(self, plan: dict | None = None, write: bool = True) -> dict[str, pd.DataFrame]:
-        """runs, steps, units, scans and jobs tables of the plan's jobs from their directories (see module doc)."""
+        """runs, steps, units, scans and jobs tables of the plan's jobs from their directories (see module doc); a
+        damaged job is a row of status DAMAGED in runs and jobs, its error the file and why, and has no other rows."""
         plan = plan or self.require_plan()
+        self.require_layout()
         membership: dict[str, list[str]] = {}
         for experiment in plan["experiments"]:
             for run_id in experiment["run_ids"]:
@@ -155,27 +293,27 @@ class Store:
         run_rows, step_tables, unit_tables, job_rows, step_keys, unit_keys = [], [], [], [], [], []
         for entry in plan["runs"]:
             run_id, condition = entry["id"], entry["condition"]
-            result = self.result("run", run_id)
-            status = "missing" if result is None else result["status"]
-            summary = (result or {}).get("summary") or {}
+            job = self.load("run", run_id)
+            row = _job_row(run_id, "run", job, self.root)
+            summary = (job.result or {}).get("summary") or {}
             ids = {"run_id": run_id, "condition_id": entry["condition_id"]}
             run_rows.append({**ids, "experiments": ";".join(membership.get(run_id, [])), **condition,
-                             "seed": entry["seed"], "status": status, "error": (result or {}).get("error"),
+                             "seed": entry["seed"], "status": row["status"], "error": row["error"],
                              **{k: _float(summary.get(k)) for k in SUMMARY_COLUMNS},
-                             "wall_time_s": _float((result or {}).get("wall_time_s"))})
-            job_rows.append(_job_row(run_id, "run", result))
-            if status == "done":
-                step_tables.append(self._arrow("run", run_id, "steps"))
+                             "wall_time_s": row["wall_time_s"]})
+            job_rows.append(row)
+            if job.status == "done":
+                step_tables.append(job.tables["steps"])
                 step_keys.append({**ids, **condition, "seed": entry["seed"]})
-                unit_tables.append(self._arrow("run", run_id, "units"))
+                unit_tables.append(job.tables["units"])
                 unit_keys.append({"run_id": run_id})
         scan_tables, scan_keys = [], []
         for scan in plan["scans"]:
             for part_id in scan["parts"]:
-                result = self.result("scan", part_id)
-                job_rows.append(_job_row(part_id, "scan", result))
-                if result is not None and result["status"] == "done":
-                    scan_tables.append(self._arrow("scan", part_id, "points"))
+                job = self.load("scan", part_id, scan["columns"]["n_units"])
+                job_rows.append(_job_row(part_id, "scan", job, self.root))
+                if job.status == "done":
+                    scan_tables.append(job.tables["points"])
                     scan_keys.append({"scan_id": scan["id"], **scan["columns"]})
         tables = {
             "runs": pd.DataFrame(run_rows, columns=_run_columns(plan)),
@@ -195,10 +333,215 @@ class Store:
         return path
 
 
-def _job_row(job_id: str, kind: str, result: dict | None) -> dict:
-    result = result or {}
-    return {"job_id": job_id, "kind": kind, "status": result.get("status", "missing"), "error": result.get("error"),
+def _job_row(job_id: str, kind: str, job: Loaded, root: Path) -> dict:
+    """A job's row of jobs.parquet (a damaged one: its error says which file and why; nothing of it is trusted)."""
+    if job.damage is not None:
+        return {"job_id": job_id, "kind": kind, "status": DAMAGED, "error": f"{job.damage.where(root)}: "
+                f"{job.damage.reason}", "wall_time_s": math.nan}
+    result = job.result or {}
+    return {"job_id": job_id, "kind": kind, "status": job.status, "error": result.get("error"),
             "wall_time_s": _float(result.get("wall_time_s"))}
+
+
+def _read_result(directory: Path, kind: str, job_id: str) -> dict | None:
+    """A job's result.json, checked; None if the job has no directory (not run yet)."""
+    if not (directory.exists() or directory.is_symlink()):
+        return None
+    if not directory.is_dir():
+        raise _Bad(directory, "a job directory (this is not a directory)")
+    path = directory / RESULT
+    try:
+        result = json.loads(path.read_bytes())
+    except FileNotFoundError:
+        raise _Bad(path, "the job's result.json (a finished job's directory has one), got none") from None
+    except IsADirectoryError:
+        raise _Bad(path, "a JSON file, got a directory") from None
+    except OSError as exc:
+        raise _Bad(path, f"a readable file ({exc.strerror})") from None
+    except (ValueError, RecursionError):
+        raise _Bad(path, "the JSON object 'morphbench bench' writes, got something that is not JSON") from None
+    _check_result(result, kind, job_id, path)
+    return result
+
+
+def _check_result(result: Any, kind: str, job_id: str, path: Path) -> None:
+    if not isinstance(result, dict):
+        raise _Bad(path, f"a JSON object of job_id, kind, status, error, wall_time_s and summary, got "
+                         f"{type(result).__name__}")
+    for key, wanted in (("job_id", job_id), ("kind", kind)):
+        if result.get(key) != wanted:
+            raise _Bad(path, f"{key} {wanted!r} (its directory's), got {_short(result.get(key, '(none)'))}")
+    status = result.get("status")
+    if status not in STATUSES:
+        raise _Bad(path, f"status 'done' or 'failed', got {_short(status)}")
+    if not isinstance(result.get("error"), (str, type(None))):
+        raise _Bad(path, f"error a string or null, got {_short(result['error'])}")
+    wall = result.get("wall_time_s")
+    if wall is not None and not (_number(wall) and math.isfinite(wall) and wall >= 0):
+        raise _Bad(path, f"wall_time_s a number of seconds >= 0 or null, got {_short(wall)}")
+    summary = result.get("summary")
+    if kind == "run" and status == "done" and not isinstance(summary, dict):
+        raise _Bad(path, f"summary, the run's summary (an object), got {_short(summary)}")
+    if not isinstance(summary, (dict, type(None))):
+        raise _Bad(path, f"summary an object or null, got {_short(summary)}")
+    for key in SUMMARY_COLUMNS if summary else ():
+        value = summary.get(key)
+        if value is not None and not (_number(value) or isinstance(value, bool)) or value in (math.inf, -math.inf):
+            raise _Bad(path, f"summary.{key} a finite number, NaN or null, got {_short(value)}")
+    for key in ("steps", "n_units"):
+        value = (summary or {}).get(key)
+        if value is not None and not (isinstance(value, int) and not isinstance(value, bool) and value >= 0):
+            raise _Bad(path, f"summary.{key} an integer >= 0, got {_short(value)}")
+
+
+def _read_table(path: Path, n_units: int | None) -> pa.Table:
+    """A job's Parquet table, its columns, types and values checked against its schema (JOB_SCHEMAS)."""
+    name = path.stem
+    if not path.is_file():
+        what = "a directory" if path.is_dir() else "none"
+        raise _Bad(path, f"the job's {path.name} (a done job has one), got {what}")
+    try:
+        table = pq.read_table(path)
+    except (OSError, ValueError, pa.ArrowException) as exc:
+        raise _Bad(path, f"a Parquet file ({describe(exc, where=False)[:160]})") from None
+    if name == "points" and n_units is None:  # a scan part checked without its plan: any dphi columns
+        n_units = 1 + sum(1 for c in table.column_names if re.fullmatch(r"dphi_\d+", c))
+    schema = points_schema(n_units) if name == "points" else JOB_SCHEMAS[name]
+    unknown = [c for c in table.column_names if c not in schema]
+    if unknown or len(set(table.column_names)) < len(table.column_names):
+        raise _Bad(path, f"the columns of {path.name} ({', '.join(schema)}), got {_short(unknown or 'a repeated one')}")
+    if table.num_rows == 0:
+        raise _Bad(path, "at least one row, got none")
+    for column, (kind, required, finite) in schema.items():
+        if column not in table.column_names:
+            if required:
+                raise _Bad(path, f"a column {column} (the columns of {path.name}: {', '.join(schema)}), got none")
+            continue
+        data = table.column(column)
+        found = str(data.type)
+        if found != kind and not (kind == STRING and found == "large_string"):
+            raise _Bad(path, f"column {column} of type {kind}, got {found}")
+        if data.null_count and (finite or kind != FLOAT):
+            raise _Bad(path, f"a value in every row of column {column}, got {data.null_count} nulls")
+        if kind == FLOAT:
+            values = data.to_numpy()
+            bad = np.isinf(values) | (np.isnan(values) if finite else False)
+            if bad.any():
+                row = int(np.flatnonzero(bad)[0])
+                raise _Bad(path, f"{'finite values' if finite else 'no infinite value'} in column {column}, got "
+                                 f"{values[row]} in row {row}")
+    return table
+
+
+def _check_counts(tables: dict[str, pa.Table], summary: dict, directory: Path) -> None:
+    """A run's tables have the rows its summary says: step 0 and each learning step, each of every unit."""
+    n_steps = tables["steps"].num_rows
+    if summary.get("steps") is not None and n_steps != summary["steps"] + 1:
+        raise _Bad(directory / "steps.parquet", f"{summary['steps'] + 1} rows (step 0 and the summary's "
+                   f"{summary['steps']} learning steps), got {n_steps}")
+    if summary.get("n_units") is not None and tables["units"].num_rows != n_steps * summary["n_units"]:
+        raise _Bad(directory / "units.parquet", f"{n_steps * summary['n_units']} rows (each of the summary's "
+                   f"{summary['n_units']} units at each of {n_steps} steps), got {tables['units'].num_rows}")
+
+
+def check_plan(plan: Any, source: str) -> None:
+    """ConfigError unless ``plan`` has what the tables and the report read from plan.json, with plain names."""
+    _require(plan, dict, source, "(plan)", "the JSON object 'morphbench bench' writes")
+    _require(plan.get("suite"), str, source, "suite", "the suite's name")
+    _require(plan.get("description", ""), str, source, "description", "a string")
+    runs = _require(plan.get("runs"), list, source, "runs", "a list of runs")
+    conditions, run_ids, settings = set(), set(), set()
+    reserved = {*_run_columns({"runs": []}), *STEP_COLUMNS}  # a setting of that name would be a second column
+    for i, run in enumerate(runs):
+        key = f"runs[{i}]"
+        _require(run, dict, source, key, "an object of id, condition_id, condition and seed")
+        _unique(_name(run.get("id"), source, f"{key}.id"), run_ids, source, f"{key}.id")
+        conditions.add(_name(run.get("condition_id"), source, f"{key}.condition_id"))
+        condition = _require(run.get("condition"), dict, source, f"{key}.condition", "an object of settings")
+        for name, value in condition.items():
+            if name in reserved or not isinstance(value, (str, int, float, bool, type(None))):
+                raise _refused(source, f"{key}.condition.{name}", "a setting (not a column of the tables) whose "
+                               "value is a string, number or boolean", value)
+        for name, kind in (("shape", str), ("learner", str), ("n_units", int)):
+            _require(condition.get(name), kind, source, f"{key}.condition.{name}", f"a {kind.__name__}")
+        settings.update(condition)
+        if isinstance(run.get("seed"), bool) or not isinstance(run.get("seed"), int):
+            raise _refused(source, f"{key}.seed", "an integer", run.get("seed"))
+    experiments = _require(plan.get("experiments"), list, source, "experiments", "a list of experiments")
+    names: set[str] = set()
+    for i, experiment in enumerate(experiments):
+        key = f"experiments[{i}]"
+        _require(experiment, dict, source, key, "an object of name, run_ids, condition_ids and varying")
+        _unique(_name(experiment.get("name"), source, f"{key}.name"), names, source, f"{key}.name")
+        _require(experiment.get("description", ""), str, source, f"{key}.description", "a string")
+        for field_name, known in (("run_ids", run_ids), ("condition_ids", conditions)):
+            values = _require(experiment.get(field_name), list, source, f"{key}.{field_name}", "a list of ids")
+            for value in values:
+                if value not in known:
+                    raise _refused(source, f"{key}.{field_name}", "ids of the plan's runs", value)
+            if len(set(values)) < len(values):
+                raise _refused(source, f"{key}.{field_name}", "each id once", values)
+        varying = _require(experiment.get("varying"), list, source, f"{key}.varying", "a list of settings")
+        if not all(isinstance(v, str) and v in settings for v in varying):
+            raise _refused(source, f"{key}.varying", "settings of the plan's runs", varying)
+        listed = _require(experiment.get("scans", []), list, source, f"{key}.scans", "a list of scan names")
+        if not all(isinstance(v, str) for v in listed):
+            raise _refused(source, f"{key}.scans", "a list of scan names", listed)
+    scans = _require(plan.get("scans"), list, source, "scans", "a list of scans")
+    scan_ids, scan_names, part_ids = set(), set(), set()
+    for i, scan in enumerate(scans):
+        key = f"scans[{i}]"
+        _require(scan, dict, source, key, "an object of id, name, columns and parts")
+        _unique(_name(scan.get("id"), source, f"{key}.id"), scan_ids, source, f"{key}.id")
+        _unique(_name(scan.get("name"), source, f"{key}.name"), scan_names, source, f"{key}.name")
+        columns = _require(scan.get("columns"), dict, source, f"{key}.columns", "an object of the scan's columns")
+        for name, value in columns.items():
+            if name in ("scan_id", "ubar") or name.startswith("dphi_") or not isinstance(
+                    value, (str, int, float, bool, type(None))):
+                raise _refused(source, f"{key}.columns.{name}", "a scan setting (not a column of points) whose "
+                               "value is a string, number or boolean", value)
+        for column, low in (("n_units", 2), ("samples", 1)):
+            value = columns.get(column)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise _refused(source, f"{key}.columns.{column}", f"an integer >= {low}", value)
+        for column in ("shape", "shape_id", "physics"):
+            _require(columns.get(column), str, source, f"{key}.columns.{column}", "a string")
+        parts = _require(scan.get("parts"), list, source, f"{key}.parts", "a list of ids")
+        for k, part in enumerate(parts):
+            _unique(_name(part, source, f"{key}.parts[{k}]"), part_ids, source, f"{key}.parts[{k}]")
+
+
+def _unique(name: str, seen: set[str], source: str, key: str) -> None:
+    if name in seen:
+        raise _refused(source, key, "a name no other of its kind has", name)
+    seen.add(name)
+
+
+def _require(value: Any, kind: type, source: str, key: str, expected: str) -> Any:
+    if not isinstance(value, kind):
+        raise _refused(source, key, expected, value)
+    return value
+
+
+def _name(value: Any, source: str, key: str) -> str:
+    if not isinstance(value, str) or not SAFE_NAME.match(value):
+        raise _refused(source, key, "a name of at most 200 letters, digits, '_', '.' and '-' starting with a letter "
+                       f"or digit (never a path; {REPAIR})", value)
+    return value
+
+
+def _refused(source: str, key: str, expected: str, value: Any) -> ConfigError:
+    return ConfigError(source, key, f"{expected}, got {_short(value)}")
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _short(value: Any, width: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= width else text[:width - 3] + "..."
+
 
 
 def _condition_keys(plan: dict) -> list[str]:

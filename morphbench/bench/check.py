@@ -1,0 +1,195 @@
+"""``morphbench check DIR [--repair]``: a results directory against its plan, each damaged job or file on one line.
+
+What is checked, each finding a ``store.Damage`` (the file, and what was expected there):
+
+- ``plan.json``: the JSON plan ``bench`` writes, every experiment, scan and job named by a plain name, never a path
+  (``store.check_plan``); ``runs/`` and ``scans/``: directories;
+- every job of the plan that has a directory (``Store.load``): result.json (an object of the keys ``bench`` writes,
+  status 'done' or 'failed', numbers finite), each Parquet table (readable; the columns and types of
+  experiment/records.py; no infinity, NaN only where the records have one) and its rows against the run's summary;
+  without a usable plan, every job directory under ``runs/`` and ``scans/``;
+- the consolidated tables: readable, and, when no job is damaged, equal to what the job directories give now
+  (``runs``, ``steps``, ``units``, ``scans``, ``jobs``, and ``curves`` and ``metrics`` once a report was built; columns
+  in any order); ``backends.parquet`` readable with the columns a report shows (morphbench.bench.backends).
+
+Exit status: 0 clean, 1 damage found, 2 when DIR is not a results directory at all.
+
+``--repair`` moves every damaged job directory, and a damaged plan.json, ``runs/``, ``scans/`` or table, into
+``DIR/damaged/<UTC time>/`` under its own relative path (nothing is deleted but tables rebuilt from the jobs), and
+removes the consolidated tables that no longer describe the jobs. ``morphbench bench SUITE --out DIR`` then runs
+exactly the moved jobs again (with ``--resume`` when plan.json was moved aside: DIR then has none) and rebuilds the
+tables.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from morphbench.bench import backends as B
+from morphbench.bench import metrics as M
+from morphbench.bench.store import KIND_DIRS, PLAN, TABLES, Damage, Store
+from morphbench.errors import ConfigError
+from morphbench.failures import describe
+from morphbench.files import is_dir
+
+REPORT_TABLES = ("curves", "metrics")
+"""tables a report computes from the consolidated ones."""
+EXIT_DAMAGED = 1
+
+
+@dataclass
+class Findings:
+    """What ``check`` found in a results directory."""
+
+    root: Path
+    damages: list[Damage] = field(default_factory=list)
+    plan: dict | None = None
+    """the plan, None if plan.json is missing or damaged."""
+    jobs: int = 0
+    """job directories checked."""
+
+
+def check(root: str | Path) -> Findings:
+    """Every damaged job and file of the results directory ``root`` (see the module doc); ConfigError if ``root`` is
+    not a results directory."""
+    store = Store(root)
+    root = store.root
+    if not is_dir(root):
+        raise ConfigError("check", str(root), "a results directory written by 'morphbench bench'"
+                          + (" (this is a file)" if root.exists() else ""))
+    if not any((root / name).exists() or (root / name).is_symlink() for name in (PLAN, *KIND_DIRS.values())):
+        raise ConfigError(str(root), PLAN, "a results directory written by 'morphbench bench' (it has no plan.json, "
+                                           "runs/ or scans/)")
+    found = Findings(root)
+    try:
+        found.plan = store.read_plan()
+        if found.plan is None:
+            found.damages.append(Damage(root / PLAN, "expected the plan 'morphbench bench' writes, got none"))
+    except ConfigError as exc:
+        found.damages.append(Damage(root / PLAN, _after(exc, str(root / PLAN))))
+    layout = store.layout_damage()
+    found.damages += layout
+    if not layout:
+        for kind, job_id, n_units in _jobs(store, found.plan):
+            found.jobs += 1
+            job = store.load(kind, job_id, n_units)
+            if job.damage is not None:
+                found.damages.append(job.damage)
+    found.damages += _tables(store, found)
+    return found
+
+
+def _jobs(store: Store, plan: dict | None) -> list[tuple[str, str, int | None]]:
+    """(kind, id, scan's number of units) of every job to check that has a directory: the plan's, or without one
+    every directory under runs/ and scans/."""
+    if plan is not None:
+        jobs = [("run", entry["id"], None) for entry in plan["runs"]]
+        jobs += [("scan", part, scan["columns"]["n_units"]) for scan in plan["scans"] for part in scan["parts"]]
+        return [job for job in jobs if os.path.lexists(store.job_dir(*job[:2]))]
+    jobs = []
+    for kind, sub in KIND_DIRS.items():
+        folder = store.root / sub
+        if folder.is_dir():
+            jobs += [(kind, path.name, None) for path in sorted(folder.iterdir()) if not path.name.startswith(".")]
+    return jobs
+
+
+def _tables(store: Store, found: Findings) -> list[Damage]:
+    """The consolidated tables and backends.parquet that are unreadable, or that differ from the jobs."""
+    root, damages = store.root, []
+    rebuilt = None
+    for name in (*TABLES, *REPORT_TABLES, B.TABLE):
+        path = root / f"{name}.parquet"
+        if not os.path.lexists(path):
+            continue
+        try:
+            stored = pd.read_parquet(path) if path.is_file() else None
+        except Exception as exc:  # noqa: BLE001 - whatever Arrow raises on a damaged file is a finding
+            damages.append(Damage(path, f"expected a Parquet table ({describe(exc, where=False)[:160]})"))
+            continue
+        if stored is None:
+            damages.append(Damage(path, "expected a Parquet table, got a directory"))
+            continue
+        if name == B.TABLE:
+            reason = B.table_problem(stored)
+            reason = reason and f"expected {reason}"
+        elif found.plan is None or found.damages:
+            continue  # compared with the jobs only when they and the plan are sound: else rebuilt after the repair
+        else:
+            if rebuilt is None:
+                rebuilt = store.consolidate(found.plan, write=False)
+                rebuilt["curves"] = M.curves(rebuilt["steps"])
+                rebuilt["metrics"] = M.condition_metrics(rebuilt["steps"], rebuilt["runs"], rebuilt["scans"])
+            reason = _difference(stored, rebuilt[name])
+        if reason:
+            damages.append(Damage(path, reason))
+    return damages
+
+
+def _difference(stored: pd.DataFrame, expected: pd.DataFrame) -> str | None:
+    """Why ``stored`` (read from Parquet) is not ``expected`` (columns in any order), or None."""
+    expected = pd.read_parquet(io.BytesIO(expected.to_parquet(index=False)))  # the same types as a stored table
+    fix = "stale or edited: 'morphbench report DIR' rebuilds it"
+    if set(stored.columns) != set(expected.columns):
+        odd = sorted(set(stored.columns) ^ set(expected.columns))
+        return f"expected the columns the job directories give ({fix}), got a difference in {odd[0]!r}"
+    if len(stored) != len(expected):
+        return f"expected {len(expected)} rows, one per job directory's ({fix}), got {len(stored)}"
+    for column in expected.columns:
+        if not stored[column].reset_index(drop=True).equals(expected[column]):
+            return f"expected the values the job directories give ({fix}), got others in column {column!r}"
+    return None
+
+
+def move_aside(found: Findings) -> tuple[list[tuple[str, str]], list[str]]:
+    """Move the damaged jobs and files of ``found`` aside into DIR/damaged/<time>/ and remove the consolidated
+    tables left stale; ((moved, to) relative paths, removed table names)."""
+    root, store = found.root, Store(found.root)
+    targets = [path for path in dict.fromkeys(store.job_dir(d.kind, d.job_id) if d.job_id else d.path
+                                              for d in found.damages) if os.path.lexists(path)]  # not a missing plan
+    moved = [(str(a.relative_to(root)), str(b.relative_to(root))) for a, b in zip(targets, store.set_aside(targets))]
+    removed = []
+    if any(not relative.endswith(".parquet") for relative, _ in moved):  # jobs, plan or a job folder went
+        for name in (*TABLES, *REPORT_TABLES):
+            path = root / f"{name}.parquet"
+            if path.is_file():
+                path.unlink()  # rebuilt from the job directories by the next bench or report
+                removed.append(path.name)
+    return moved, removed
+
+
+def run(directory: str | Path, repair: bool = False) -> int:
+    """``morphbench check DIR [--repair]``: the findings on stdout, one line each; the exit status (0 clean, 1
+    damaged; ConfigError, 2, when DIR is not a results directory)."""
+    found = check(directory)
+    root = found.root
+    what = f"{found.jobs} job directories" + (" and the plan" if found.plan is not None else "")
+    if not found.damages:
+        print(f"{root}: {what} checked, no damage")
+        return 0
+    for damage in found.damages:
+        print(damage.line(root))
+    if not repair:
+        print(f"{len(found.damages)} damaged in {root} ({what} checked): 'morphbench check {root} --repair' moves "
+              "them aside to be run again")
+        return EXIT_DAMAGED
+    moved, removed = move_aside(found)
+    for relative, destination in moved:
+        print(f"moved {relative} to {destination}")
+    if removed:
+        print(f"removed {', '.join(removed)} (stale: rebuilt from the job directories)")
+    suite = found.plan.get("source") if found.plan is not None else None
+    resume = "" if found.plan is not None else " --resume"
+    print(f"to run the moved jobs again: morphbench bench {suite or 'SUITE'} --out {root}{resume}")
+    return EXIT_DAMAGED
+
+
+def _after(exc: ConfigError, source: str) -> str:
+    """A ConfigError's message without its leading source (the Damage names the file)."""
+    text = str(exc)
+    return text[len(source) + 2:] if text.startswith(source + ": ") else text

@@ -1,0 +1,185 @@
+"""Damaged results directories: ``morphbench check`` finds each kind of damage (tests/fuzz_results.py DAMAGES), the
+report skips damaged jobs or refuses a damaged directory in one line, and ``check --repair`` followed by the same
+bench gives the tables of the undamaged directory again."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+import fuzz_results
+import fuzzing
+from fuzz_results import DAMAGES, Inline
+from morphbench.bench import load_suite, run_suite
+from morphbench.bench.store import DAMAGED, JOB_SCHEMAS, TABLES, Store, check_plan
+from morphbench.experiment.records import STEP_COLUMNS, UNIT_COLUMNS
+
+from conftest import BENCHMARKS_DIR, run_cli
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """fuzz_results.SUITE run with its report: (suite file, results directory, its consolidated tables)."""
+    out = tmp_path_factory.mktemp("finished") / "R"
+    suite = fuzz_results.build(out)
+    return suite, out, Store(out).consolidate(write=False)
+
+
+def listing(root: Path) -> dict[str, tuple[int, int]]:
+    """Every path under ``root`` with its size and modification time: what a refused command must leave alone."""
+    return {str(p.relative_to(root)): (p.lstat().st_size, p.lstat().st_mtime_ns) for p in root.rglob("*")}
+
+
+def comparable(tables: dict[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
+    return {name: tables[name].drop(columns=["wall_time_s"]) if "wall_time_s" in tables[name] else tables[name]
+            for name in TABLES}
+
+
+def assert_same_tables(a: dict[str, pd.DataFrame], b: dict[str, pd.DataFrame]) -> None:
+    a, b = comparable(a), comparable(b)
+    for name in TABLES:
+        pd.testing.assert_frame_equal(a[name], b[name], check_exact=True, obj=name)
+
+
+def one_line(err: str) -> str:
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+@pytest.mark.parametrize("kind", DAMAGES, ids=lambda kind: kind.name)
+def test_each_kind_of_damage_is_found_reported_and_repaired(kind, finished, tmp_path, capsys):
+    suite, source, expected = finished
+    root = tmp_path / "R"
+    shutil.copytree(source, root)
+    path, _ = kind.damage(root)
+    relative = str(path.relative_to(root))
+
+    code, out, err = run_cli(capsys, "check", str(root))
+    if not kind.check:
+        assert code == 0 and "no damage" in out, out + err
+        return
+    assert code == 1 and err == "", out + err
+    assert any(relative in line for line in out.splitlines()[:-1]), out
+
+    if kind.report == "compare":  # the damaged directory compared: refused, nothing written into the one reported
+        target = tmp_path / "T"
+        shutil.copytree(source, target)
+        before = listing(target)
+        code, out, err = run_cli(capsys, "report", str(target), "--compare", str(root), str(source), "--no-videos")
+        assert code == 2 and str(root) in one_line(err) and path.name in err, err
+        assert listing(target) == before
+    elif kind.report == "refuse":
+        before = listing(tmp_path)
+        code, out, err = run_cli(capsys, "report", str(root), "--no-videos")
+        line = one_line(err)
+        assert code == 2 and line.startswith("morphbench: error: ") and path.name in line, err
+        assert listing(tmp_path) == before  # nothing written, inside the directory or out of it
+    else:
+        code, out, err = run_cli(capsys, "report", str(root), "--no-videos")
+        assert code == 0, err
+        jobs = pd.read_parquet(root / "jobs.parquet")
+        if kind.report == "skip":
+            job_id = Path(relative).parts[1]
+            assert "damaged jobs left out of the tables and the report" in one_line(err)
+            assert jobs.set_index("job_id").status[job_id] == DAMAGED
+            assert f"{job_id} | {relative}: expected " in (root / "report.md").read_text()
+            if relative.startswith("runs/"):  # never counted as finished
+                runs = pd.read_parquet(root / "runs.parquet").set_index("run_id")
+                metrics = pd.read_parquet(root / "metrics.parquet").set_index("condition_id")
+                row = metrics.loc[runs.condition_id[job_id]]
+                assert (runs.status[job_id], row.runs - row.failed - row.missing) == (DAMAGED, 1)
+        else:  # a consolidated table: rebuilt from the jobs
+            assert err == "" and (jobs.status == "done").all()
+            assert_same_tables(Store(root).consolidate(write=False), expected)
+            kind.damage(root)  # again, for the repair
+
+    code, out, _ = run_cli(capsys, "check", str(root), "--repair")
+    assert code == 1 and "moved " in out
+    aside = "/".join(Path(relative).parts[:2]) if kind.where.startswith("<") else relative  # a job: its directory
+    assert len(list((root / "damaged").glob(f"*/{aside}"))) == 1  # kept, not deleted
+    plan_moved = kind.where == "plan.json"
+    outcome = run_suite(load_suite(suite), root, Inline(), resume=plan_moved, progress=False)
+    assert_same_tables(outcome.tables, expected)
+    code, out, _ = run_cli(capsys, "check", str(root))
+    assert code == 0, out
+
+
+def test_retry_failed_runs_a_job_with_a_damaged_result_again_and_keeps_the_damaged_one(finished, tmp_path, capsys):
+    suite, source, expected = finished
+    root = tmp_path / "R"
+    shutil.copytree(source, root)
+    job = sorted((root / "runs").iterdir())[0]
+    (job / "result.json").write_text("[]")
+    code, _, err = run_cli(capsys, "bench", str(suite), "--out", str(root), "--no-report", "--quiet")
+    assert code == 0 and "1 damaged jobs left out" in one_line(err)  # skipped, not run over
+    assert pd.read_parquet(root / "runs.parquet").status.eq(DAMAGED).sum() == 1
+    outcome = run_suite(load_suite(suite), root, Inline(), retry_failed=True, progress=False)
+    assert outcome.done == 1
+    assert_same_tables(outcome.tables, expected)
+    kept = list((root / "damaged").glob(f"*/runs/{job.name}/result.json"))
+    assert len(kept) == 1 and kept[0].read_text() == "[]"
+
+
+def test_a_clean_directory_is_clean_and_other_directories_are_not_results(finished, tmp_path, capsys):
+    _, source, _ = finished
+    code, out, err = run_cli(capsys, "check", str(source))
+    assert (code, err) == (0, "") and "no damage" in out
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "file").write_text("x")
+    for target in (tmp_path / "empty", tmp_path / "file", tmp_path / "absent"):
+        code, _, err = run_cli(capsys, "check", str(target))
+        assert code == 2 and one_line(err).startswith("morphbench: error: ") and str(target) in err
+
+
+def test_without_a_usable_plan_the_job_directories_are_still_checked(finished, tmp_path, capsys):
+    _, source, _ = finished
+    root = tmp_path / "R"
+    shutil.copytree(source, root)
+    (root / "plan.json").write_text("{")
+    run = sorted((root / "runs").iterdir())[1]
+    (run / "units.parquet").write_bytes(b"")
+    code, out, _ = run_cli(capsys, "check", str(root))
+    assert code == 1
+    assert out.splitlines()[0].startswith("plan.json: (syntax): expected the JSON plan")
+    assert f"run {run.name}: runs/{run.name}/units.parquet: expected a Parquet file" in out
+    (root / "plan.json").unlink()
+    code, out, err = run_cli(capsys, "check", str(root), "--repair")
+    assert (code, err) == (1, "") and out.startswith("plan.json: expected the plan 'morphbench bench' writes, got none")
+    assert f"moved runs/{run.name} to damaged/" in out and out.rstrip().endswith(f"--out {root} --resume")
+
+
+@pytest.mark.parametrize("suite", sorted(BENCHMARKS_DIR.glob("*.toml")), ids=lambda path: path.name)
+def test_the_plans_of_the_shipped_suites_pass_the_checks(suite):
+    check_plan(json.loads(json.dumps(load_suite(suite).plan())), str(suite))
+
+
+def test_the_schemas_cover_the_records_columns():
+    assert tuple(JOB_SCHEMAS["steps"]) == STEP_COLUMNS
+    assert tuple(JOB_SCHEMAS["units"]) == UNIT_COLUMNS
+
+
+def test_a_plan_naming_an_experiment_by_a_path_writes_nothing_outside(finished, tmp_path, capsys):
+    """The report of a plan whose experiment is '../../evil' would have drawn figures/../../evil-ubar.png."""
+    _, source, _ = finished
+    root = tmp_path / "a" / "b" / "R"
+    shutil.copytree(source, root)
+    plan = json.loads((root / "plan.json").read_text())
+    plan["experiments"][0]["name"] = "../../evil"
+    (root / "plan.json").write_text(json.dumps(plan))
+    code, _, err = run_cli(capsys, "report", str(root), "--no-videos")
+    assert code == 2 and "experiments[0].name: expected a name" in err and "'../../evil'" in err
+    assert not list(tmp_path.rglob("*evil*"))
+
+
+def test_generated_cases_keep_the_promise():
+    """A few of the robustness benchmark's cases: refused cleanly, accepted, or (check) damage found."""
+    for case in fuzz_results.random_cases(6, seed=1):
+        with tempfile.TemporaryDirectory() as directory:
+            outcome = fuzzing.run_case(case, Path(directory) / "case", timeout_s=60)
+        assert fuzz_results.verdict(outcome) in ("accepted", "refused"), (case.short(), outcome.verdict, outcome.err)
