@@ -191,6 +191,15 @@ directory and a row of every table, and the plan alone holds about SUITE_RUN_BYT
 SUITE_RUN_BYTES = 600
 """bytes a suite's plan holds per run (its spec, configuration and job; measured with tracemalloc on chain-2)."""
 
+GRAVITY = 9.81
+"""m/s^2."""
+MIN_FRICTION_INERTIA = 10.0
+"""The quasi-static model's range: ``friction_inertia`` at least this. The model neglects inertia, which holds while
+friction dominates it; below 10 its gaits part from PyBullet's beyond the targets docs/fidelity.md sets between the
+two (rms 0.4 mm/cycle over the 2-unit curve, 0.6 over 3-unit phases), and at a friction scale of 1e-6 the
+quasi-static chain-2 still walks at +6.7 mm/cycle where PyBullet's glides at 0 (docs/fidelity.md, "Friction against
+inertia")."""
+
 
 def check_plan_size(count: int, limit: int, bytes_each: int, what: str, source: str, key: str, got: object) -> int:
     """``count`` if at most ``limit``, else ConfigError naming ``source`` and ``key``, with the memory the plan of
@@ -202,14 +211,6 @@ def check_plan_size(count: int, limit: int, bytes_each: int, what: str, source: 
         raise ConfigError(source, key, f"at most {limit:,} {what} (this asks for {count:,}, about {shown} of memory "
                                        "before anything runs)", got)
     return count
-GRAVITY = 9.81
-"""m/s^2."""
-MIN_FRICTION_INERTIA = 10.0
-"""The quasi-static model's range: ``friction_inertia`` at least this. The model neglects inertia, which holds while
-friction dominates it; below 10 its gaits part from PyBullet's beyond the targets docs/fidelity.md sets between the
-two (rms 0.4 mm/cycle over the 2-unit curve, 0.6 over 3-unit phases), and at a friction scale of 1e-6 the
-quasi-static chain-2 still walks at +6.7 mm/cycle where PyBullet's glides at 0 (docs/fidelity.md, "Friction against
-inertia")."""
 
 
 def param(default: Any, rule: Rule, unit: str = "") -> Any:
