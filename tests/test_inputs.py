@@ -46,7 +46,12 @@ def env():
     env.close()
 
 
-@pytest.mark.parametrize("action", BAD_ACTIONS, ids=lambda action: type(action).__name__ if type(action) is object else repr(action))
+def _id(action) -> str:
+    """The test id: an object's repr holds its address, which differs between xdist's workers."""
+    return type(action).__name__ if type(action) is object else repr(action)
+
+
+@pytest.mark.parametrize("action", BAD_ACTIONS, ids=_id)
 def test_every_action_that_is_not_one_finite_real_phase_is_refused_naming_the_agent_and_the_space(env, action):
     env.reset(seed=0)
     with pytest.raises(ActionError) as info:
