@@ -45,6 +45,7 @@ import pyarrow.parquet as pq
 
 from morphbench.errors import ConfigError
 from morphbench.experiment.records import STEP_COLUMNS, atomic_write
+from morphbench.files import is_stale
 
 KIND_DIRS = {"run": "runs", "scan": "scans"}
 RESULT = "result.json"
@@ -90,6 +91,8 @@ class Store:
             meta = {"job_id": job.id, "kind": job.kind, "status": result["status"], "error": result.get("error"),
                     "traceback": result.get("traceback"), "wall_time_s": result.get("wall_time_s"),
                     "summary": result.get("summary")}
+            if result.get("crashes"):  # times its worker died (bench/runner.py runs such a job once more)
+                meta["crashes"] = result["crashes"]
             (tmp / RESULT).write_text(json.dumps(meta, indent=2, sort_keys=True, default=_json_default) + "\n")
             if final.exists():  # a failed job run again (--retry-failed): move the old one out of the way first
                 old = final.parent / f".tmp-old-{job.id}-{os.getpid()}"
@@ -108,17 +111,20 @@ class Store:
         return pq.read_table(self.job_dir(kind, job_id) / f"{name}.parquet")
 
     def clean_temporaries(self) -> int:
-        """Remove what a killed bench left half-written (temporary job directories and files)."""
+        """Remove what a killed bench left half-written (temporary job directories and files); a temporary of a
+        process still running is its to finish (files.is_stale)."""
         removed = 0
         for sub in KIND_DIRS.values():
             folder = self.root / sub
             if folder.is_dir():
                 for path in folder.glob(".tmp-*"):
-                    shutil.rmtree(path, ignore_errors=True)
-                    removed += 1
+                    if is_stale(path):
+                        shutil.rmtree(path, ignore_errors=True)
+                        removed += 1
         for path in self.root.glob(".*.tmp-*"):
-            path.unlink(missing_ok=True)
-            removed += 1
+            if is_stale(path):
+                path.unlink(missing_ok=True)
+                removed += 1
         return removed
 
     # --- the plan ---
