@@ -188,7 +188,7 @@ def _lock_holder(fd: int) -> str:
     try:
         holder = json.loads(os.pread(fd, 4096, 0))
         command = " ".join(str(holder["command"]).split())
-        command = command if len(command) <= 160 else command[:157] + "..."
+        command = command if len(command) <= 300 else command[:297] + "..."
         return f"process {int(holder['pid'])} on {holder['host']} holds it: {command}"
     except (OSError, ValueError, KeyError, TypeError):
         return f"another process holds its {LOCK}"

@@ -217,7 +217,8 @@ class DaskExecutor:
                     result = future.result()
                 except distributed.KilledWorker as exc:  # the job took every worker that ran it down
                     last = getattr(exc.last_worker, "address", exc.last_worker)
-                    result = lost(f"{exc.allowed_failures + 1} Dask workers died running it, the last {last}")
+                    before = f" and {exc.allowed_failures} before it" if exc.allowed_failures else ""
+                    result = lost(f"Dask worker {last}{before}")
                 except Exception as exc:  # a lost connection, ...
                     result = failed(describe(exc))
                 future.release()
