@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import random
 import signal
 import socket
 import subprocess
@@ -19,6 +20,7 @@ import textwrap
 import time
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from morphbench.bench import DaskExecutor, LocalExecutor, load_suite, run_suite
@@ -27,6 +29,8 @@ from morphbench.bench.runner import batched
 from morphbench.files import LOCK, directory_lock, is_stale
 from morphbench.errors import ConfigError
 
+import fuzz_suites
+import fuzzing
 from conftest import ROOT, SHAPES_DIR, write_suite
 
 CHAIN2, CHAIN3 = SHAPES_DIR / "chain-2.toml", SHAPES_DIR / "chain-3.toml"
@@ -446,3 +450,19 @@ def test_a_killed_bench_leaves_no_worker_running(gated, tmp_path):
         (gate / "open").touch()
         bench.kill()
         bench.wait()
+
+
+# --- the robustness benchmark's cases ---------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("family, verdict", [("crash", "accepted"), ("held", "refused"), ("stale", "accepted")])
+def test_each_family_of_generated_suite_cases_keeps_its_promise(family, verdict, tmp_path):
+    for seed in range(2):
+        case = fuzz_suites.make_case(fuzzing.RandomChooser(random.Random(f"{family}-{seed}")), (family,))
+        outcome = fuzzing.run_case(case, tmp_path / f"case-{seed}", timeout_s=PATIENCE_S)
+        assert outcome.verdict == verdict, (case.short(), outcome.err, outcome.exception)
+        if family == "crash":  # the plug-in's failures recorded, the thermal runs done
+            runs = pd.read_parquet(tmp_path / f"case-{seed}" / "out" / "runs.parquet")
+            assert (runs[runs.learner == "thermal"].status == "done").all() and (runs.status == "failed").any()
+        if family == "held":
+            assert " holds it: " in outcome.line() and "directory_lock" in outcome.line()
