@@ -60,6 +60,7 @@ class LocalExecutor:
                 while len(idle) < len(queue) and len(workers) < size:
                     workers.append(_Worker(fn))
                     idle.append(workers[-1])
+                    workers[-1].start()  # once listed: Ctrl-C from here on stops it with the others
                 for worker in idle[:len(queue)]:
                     worker.give(queue.popleft(), queue)
                 busy = [w for w in workers if w.job is not None]
@@ -72,7 +73,7 @@ class LocalExecutor:
                     if worker.conn in ready or worker.process.sentinel in ready:
                         yield worker.take()
         finally:
-            _stop([w for w in workers if not w.dead])
+            _stop([w for w in workers if not w.dead and w.process.pid is not None])  # started and alive
 
 
 class _Worker:
@@ -81,8 +82,11 @@ class _Worker:
     def __init__(self, fn: Callable[[Any], dict]):
         context = multiprocessing.get_context("spawn")
         self.conn, child = context.Pipe()
+        self.child = child
         self.process = context.Process(target=_serve, args=(child, fn, os.getpid()), name="morphbench-worker")
         self.job, self.dead = None, False
+
+    def start(self) -> None:
         # Ctrl-C held off while the worker starts: it inherits the blocked signal until it ignores it for good, and
         # the parent gets it right after
         held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
@@ -90,7 +94,7 @@ class _Worker:
             self.process.start()
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, held)
-        child.close()
+            self.child.close()
 
     def give(self, job, queue: collections.deque) -> None:
         """Send ``job``; if the worker has died meanwhile, ``job`` goes back to the head of ``queue``."""
@@ -156,7 +160,7 @@ def _serve(conn, fn: Callable[[Any], dict], parent: int) -> None:
     while True:
         try:
             job = conn.recv()
-        except EOFError:  # the parent has gone
+        except (EOFError, OSError):  # the parent has gone
             return
         if job is None:
             return
