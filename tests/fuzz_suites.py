@@ -13,7 +13,8 @@ of the thermal one), in one of three families (``FAMILIES``):
   suite goes on and records the failures, exit 1 (fuzzing.judge's *accepted*), in bounded time (a crash rerun for
   ever is a timeout).
 - ``held``: another process holds the results directory (``files.directory_lock``) while the bench starts. Promise:
-  exit 2, one line naming that process, nothing written (*refused*).
+  exit 2, one line naming that process, nothing written (*refused*); a bench that goes on regardless meets a
+  learner that never returns (a *timeout*).
 - ``stale``: the directory holds what killed writers left: a lock file naming an ended process, temporaries of ended
   processes and of a running one. Promise: the bench runs (*accepted*).
 
@@ -92,24 +93,28 @@ class Learner:
 '''
 
 HELD = '''
-import os, subprocess, sys
+import multiprocessing, os, subprocess, sys, threading, time
 
 HOLDER = {holder!r}
-OUT = os.path.join(os.path.dirname(os.getcwd()), "out")  # run_case runs the command in DIR/cwd, --out DIR/out
-_holder = subprocess.Popen([sys.executable, "-c", HOLDER, OUT, "{patience}"], stdout=subprocess.PIPE,
-                           stdin=subprocess.DEVNULL)
 
 
 class OtherWriterFailed(BaseException):
     """Not an Exception: the bench must not take it for a bad plug-in (a refusal), but the case crash."""
 
 
-if _holder.stdout.readline().strip() != b"held":
-    raise OtherWriterFailed("the other writer did not take the lock")
+if multiprocessing.parent_process() is None:  # in the bench's own process, not in a worker of it
+    OUT = os.path.join(os.path.dirname(os.getcwd()), "out")  # run_case runs the command in DIR/cwd, --out DIR/out
+    _holder = subprocess.Popen([sys.executable, "-c", HOLDER, OUT, "{patience}"], stdout=subprocess.PIPE,
+                               stdin=subprocess.DEVNULL)
+    if _holder.stdout.readline().strip() != b"held":
+        raise OtherWriterFailed("the other writer did not take the lock")
+    threading.Thread(target=_holder.wait, daemon=True).start()  # reaped when it lets go (this module stays imported)
 
 
 class Learner:
     def __init__(self, params, rng):
+        # only a bench that was not refused runs a learner: it waits here until the case is a timeout, a crash
+        time.sleep(3600)
         self.phase = 0.5
 
     def propose(self):
