@@ -194,7 +194,10 @@ def _end_with_parent(parent: int) -> None:
 
 class DaskExecutor:
     """A Dask distributed cluster: ``scheduler`` is its address (``tcp://host:8786``) or a ``dask.distributed.Client``
-    (then it is used as is and not closed). Workers need morphbench (and any plug-in learner) importable."""
+    (then it is used as is and not closed). Workers need morphbench (and any plug-in learner) importable. A job that
+    takes its worker down is tried on others first (Dask's ``distributed.scheduler.allowed-failures``), then comes
+    back failed (``jobs.lost``); Dask reschedules the jobs queued on a dead worker itself (each counted suspect once:
+    ``distributed.scheduler.worker-saturation`` 1.0 queues none)."""
 
     def __init__(self, scheduler: Any, timeout: float = 20.0):
         self.scheduler, self.timeout = scheduler, timeout
