@@ -2,17 +2,23 @@
 
 A file written through ``atomic_write`` (or a ``Replacement``, for a file written over time like a video) is written
 under a temporary name in its own directory and renamed onto its name, so a reader sees the old file or the new one,
-never half of one, and a killed process leaves only a ``.NAME.tmp-PID`` file behind (which ``bench.store`` clears).
-A directory of files that belong together (a run) is written whole by ``replace_directory``. TOML files are read by
-``read_toml``, with one message for each way a file can be bad.
+never half of one, and a killed process leaves only a ``.NAME.tmp-PID`` file behind (which ``bench.store`` clears
+once ``is_stale`` says its process is gone). A directory of files that belong together (a run) is written whole by
+``replace_directory``. A directory that one process at a time may write (a suite's results) is held by
+``directory_lock``. TOML files are read by ``read_toml``, with one message for each way a file can be bad.
 """
 
 from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import fcntl
+import json
 import os
+import re
+import shlex
 import shutil
+import socket
 import signal
 import sys
 import threading
@@ -131,6 +137,94 @@ def _interrupts_held():
         if signal.SIGINT in signal.sigpending():
             signal.sigwait({signal.SIGINT})
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+LOCK = ".lock"
+"""The lock file of a directory held by ``directory_lock``."""
+_held: dict[str, tuple[int, int]] = {}
+"""The locks this process holds: lock path -> (file descriptor, depth)."""
+
+
+@contextmanager
+def directory_lock(directory: str | os.PathLike, source: str = "--out"):
+    """Hold ``directory`` (which must exist) for this process: an exclusive ``flock`` on ``directory/.lock``, whose
+    text says who holds it (pid, host, command). Held again by the same process, it nests. Held by another process,
+    it is a ConfigError naming ``source``, the directory and that process. The kernel drops the lock when the process
+    ends, however it ends, so a killed holder leaves no stale lock; the file itself stays (removing it would let a
+    second process lock a new file while a third still holds the old one)."""
+    path = os.path.join(os.path.realpath(directory), LOCK)
+    if path in _held:
+        fd, depth = _held[path]
+        _held[path] = fd, depth + 1
+        try:
+            yield
+        finally:
+            _held[path] = fd, depth
+        return
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    except OSError as exc:
+        raise ConfigError(source, str(directory), f"a directory this process can write ({exc.strerror})") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as exc:
+        holder = _lock_holder(fd) if isinstance(exc, BlockingIOError) else f"its lock failed: {exc.strerror}"
+        os.close(fd)
+        raise ConfigError(source, str(directory), f"a directory no other process is writing ({holder})") from None
+    try:
+        me = {"pid": os.getpid(), "host": socket.gethostname(), "command": _command_line()}
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, (json.dumps(me) + "\n").encode(), 0)
+        _held[path] = fd, 1
+        yield
+    finally:
+        _held.pop(path, None)
+        os.ftruncate(fd, 0)  # before the lock goes: the next holder writes its own
+        os.close(fd)
+
+
+def _lock_holder(fd: int) -> str:
+    """Who holds a lock, as its file says (the holder writes it just after locking: it may not have yet)."""
+    try:
+        holder = json.loads(os.pread(fd, 4096, 0))
+        command = " ".join(str(holder["command"]).split())
+        command = command if len(command) <= 300 else command[:297] + "..."
+        return f"process {int(holder['pid'])} on {holder['host']} holds it: {command}"
+    except (OSError, ValueError, KeyError, TypeError):
+        return f"another process holds its {LOCK}"
+
+
+def _command_line() -> str:
+    """This process's command line as typed (``python -m morphbench.cli bench ...``), or as sys.argv has it."""
+    try:
+        words = Path("/proc/self/cmdline").read_bytes().split(b"\0")[:-1]
+        return shlex.join(os.fsdecode(word) for word in words)
+    except OSError:
+        return shlex.join([sys.executable, *sys.argv])
+
+
+_TEMPORARY = re.compile(r"\.(?:.*[.-])?(?:tmp|old)-(?:.*-)?(\d+)(?:\.\w+)?")
+"""The names temporaries get: ``.NAME.tmp-PID[.SUFFIX]``, ``.NAME.old-PID`` (above) and bench.store's
+``.tmp-JOB-PID``, ``.tmp-old-JOB-PID``; group 1 is the writing process's id."""
+
+
+def is_stale(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is a temporary (by its name) that no running process is writing: its process has ended, or it
+    is this process's own, left by an earlier process of the same id (call it before writing anything). A temporary
+    of another running process, or a name that is no temporary's, is not stale."""
+    match = _TEMPORARY.fullmatch(Path(path).name)
+    if match is None:
+        return False
+    pid = int(match.group(1))
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except PermissionError:  # another user's process
+        return False
+    except (ProcessLookupError, OverflowError):  # ended; an id beyond any, which ``kill`` refuses
+        return True
+    return False
 
 
 def is_file(path: str | os.PathLike) -> bool:

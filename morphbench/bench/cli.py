@@ -72,9 +72,8 @@ def add_bench_commands(subparsers) -> None:
 
 
 def cmd_bench(args) -> int:
-    from morphbench.bench.executors import DaskExecutor, LocalExecutor, WorkerLost, connect
-    from morphbench.bench.report import build_report
-    from morphbench.bench.runner import run_suite
+    from morphbench.bench.executors import DaskExecutor, LocalExecutor, connect
+    from morphbench.bench.runner import writing
     from morphbench.bench.suite import load_suite
     from morphbench.files import check_path
 
@@ -84,19 +83,25 @@ def cmd_bench(args) -> int:
     executor = (DaskExecutor(client) if client is not None
                 else LocalExecutor(args.workers and min(args.workers, os.cpu_count() or 1)))
     try:
-        outcome = run_suite(suite, args.out, executor, resume=args.resume, retry_failed=args.retry_failed,
-                            progress=not args.quiet)
+        with writing(suite, args.out, args.resume):  # one bench at a time in DIR, the report included
+            code = _bench(args, suite, executor)
     except KeyboardInterrupt:
         print(f"morphbench: interrupted; finished runs are saved in {args.out}: run the same command again to resume",
               file=sys.stderr)
         return EXIT_INTERRUPTED
-    except WorkerLost as exc:
-        print(f"morphbench: {exc}; finished runs are saved in {args.out}: run the same command again to resume",
-              file=sys.stderr)
-        return EXIT_FAILED_RUNS
     finally:
         if client is not None:
             client.close()
+    return code
+
+
+def _bench(args, suite, executor) -> int:
+    """Run the suite, say how it went, report; the exit code."""
+    from morphbench.bench.report import build_report
+    from morphbench.bench.runner import run_suite
+
+    outcome = run_suite(suite, args.out, executor, resume=args.resume, retry_failed=args.retry_failed,
+                        progress=not args.quiet)
     print(f"{suite.name}: {outcome.done} jobs done, {outcome.failed} failed, {outcome.skipped} already in {args.out}; "
           f"{outcome.wall_time_s:.1f} s")
     for job_id, error in outcome.failures[:10]:

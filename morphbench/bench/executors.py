@@ -4,22 +4,26 @@ An executor has one method, ``run(jobs, fn)``, a generator of ``(job, result)`` 
 caller writes each result as it arrives, so stopping the generator (Ctrl-C, an error) loses no finished job.
 Closing the generator cancels the jobs not yet started. Every job is independent and deterministic, so the
 results are the same whichever executor and however many workers: only their order of arrival differs.
+
+A job whose worker process dies under it (a segfault in C code, ``os._exit`` in a plug-in, the out-of-memory killer)
+comes back as failed with the reason (``jobs.lost``: 'worker died: signal SIGSEGV'); the other jobs go on.
 """
 
 from __future__ import annotations
 
+import collections
+import ctypes
 import multiprocessing
 import os
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
+import signal
+import sys
+import threading
+import time
+from multiprocessing.connection import wait
 from typing import Any, Callable, Iterable, Iterator
 
-from morphbench.bench.jobs import describe
+from morphbench.bench.jobs import describe, failed, lost
 from morphbench.errors import ConfigError
-
-
-class WorkerLost(RuntimeError):
-    """A worker process died (killed, out of memory, a crash in C code): the jobs still pending are not run."""
 
 
 def default_workers() -> int:
@@ -32,43 +36,168 @@ def default_workers() -> int:
 
 class LocalExecutor:
     """A pool of ``workers`` fresh processes (spawned: nothing of the parent's state but ``sys.path`` and the
-    environment is inherited; each run opens its own PyBullet client in its worker). ``initializer(*initargs)``
-    runs once in each worker, e.g. to put a plug-in's directory on ``sys.path``."""
+    environment is inherited; each run opens its own PyBullet client in its worker).
 
-    def __init__(self, workers: int | None = None, initializer: Callable | None = None, initargs: tuple = ()):
+    Each worker holds one job at a time, so a worker that dies takes exactly that job with it: the job is failed
+    (``jobs.lost``), a fresh worker takes the dead one's place, and no other job is lost. Workers ignore Ctrl-C (the
+    bench stops them: no traceback of theirs comes before its one line) and end with the bench, even when it is
+    killed (SIGKILL): on Linux the kernel ends them (``PR_SET_PDEATHSIG``), elsewhere they watch their parent."""
+
+    def __init__(self, workers: int | None = None):
         self.workers = workers or default_workers()
-        self.initializer, self.initargs = initializer, initargs
 
     def describe(self) -> str:
         return f"local pool of {self.workers} worker{'s' if self.workers != 1 else ''}"
 
     def run(self, jobs: Iterable, fn: Callable[[Any], dict]) -> Iterator[tuple[Any, dict]]:
-        jobs = list(jobs)
-        if not jobs:
-            return
-        pool = ProcessPoolExecutor(max_workers=min(self.workers, len(jobs)),
-                                   mp_context=multiprocessing.get_context("spawn"),
-                                   initializer=self.initializer, initargs=self.initargs)
+        queue = collections.deque(jobs)
+        size = min(self.workers, len(queue))
+        workers: list[_Worker] = []
         try:
-            pending = {pool.submit(fn, job): job for job in jobs}
-            while pending:
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for future in done:
-                    job = pending.pop(future)
-                    try:
-                        result = future.result()
-                    except BrokenProcessPool as exc:
-                        raise WorkerLost(f"a worker process died ({exc}); {len(pending) + 1} jobs did not finish")
-                    except Exception as exc:  # e.g. a result that cannot be pickled back
-                        result = {"status": "failed", "error": describe(exc), "traceback": None, "wall_time_s": None}
-                    yield job, result
+            while True:
+                workers = [w for w in workers if not w.dead]
+                idle = [w for w in workers if w.job is None]
+                while len(idle) < len(queue) and len(workers) < size:
+                    workers.append(_Worker(fn))
+                    idle.append(workers[-1])
+                    workers[-1].start()  # once listed: Ctrl-C from here on stops it with the others
+                for worker in idle[:len(queue)]:
+                    worker.give(queue.popleft(), queue)
+                busy = [w for w in workers if w.job is not None]
+                if not busy:
+                    if queue:  # the idle workers had died: fresh ones take their jobs
+                        continue
+                    return
+                ready = set(wait([w.conn for w in busy] + [w.process.sentinel for w in busy]))
+                for worker in busy:
+                    if worker.conn in ready or worker.process.sentinel in ready:
+                        yield worker.take()
         finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+            _stop([w for w in workers if not w.dead and w.process.pid is not None])  # started and alive
+
+
+class _Worker:
+    """One worker process and the parent's end of its pipe; ``job`` is the job it runs, None when idle."""
+
+    def __init__(self, fn: Callable[[Any], dict]):
+        context = multiprocessing.get_context("spawn")
+        self.conn, child = context.Pipe()
+        self.child = child
+        self.process = context.Process(target=_serve, args=(child, fn, os.getpid()), name="morphbench-worker")
+        self.job, self.dead = None, False
+
+    def start(self) -> None:
+        # Ctrl-C held off while the worker starts: it inherits the blocked signal until it ignores it for good, and
+        # the parent gets it right after
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            self.process.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)
+            self.child.close()
+
+    def give(self, job, queue: collections.deque) -> None:
+        """Send ``job``; if the worker has died meanwhile, ``job`` goes back to the head of ``queue``."""
+        try:
+            self.conn.send(job)
+        except OSError:  # a broken pipe: the worker is gone
+            queue.appendleft(job)
+            self._end()
+        else:
+            self.job = job
+
+    def take(self) -> tuple[Any, dict]:
+        """The job and its result, or ``jobs.lost`` with why the worker died (then ``dead`` is True)."""
+        job, self.job = self.job, None
+        try:
+            return job, self.conn.recv()
+        except (EOFError, OSError):  # the worker died before it sent a result
+            self._end()
+            return job, lost(_death(self.process.exitcode))
+        except Exception as exc:  # a result that cannot be unpickled here
+            return job, failed(describe(exc))
+
+    def _end(self) -> None:
+        self.dead = True
+        self.process.join()
+        self.conn.close()
+
+
+def _death(exitcode: int | None) -> str:
+    """How a process ended, from its exit code ('signal SIGSEGV', 'exit code 3')."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            return f"signal {signal.Signals(-exitcode).name}"
+        except ValueError:
+            return f"signal {-exitcode}"
+    return f"exit code {exitcode}"
+
+
+def _stop(workers: list[_Worker]) -> None:
+    """End every worker: an idle one is told to exit, a busy one (its job cancelled) is terminated."""
+    for worker in workers:
+        if worker.job is None:
+            try:
+                worker.conn.send(None)
+            except OSError:  # it has just died
+                pass
+        else:
+            worker.process.terminate()
+    for worker in workers:
+        worker.process.join(timeout=10)
+        if worker.process.is_alive():
+            worker.process.kill()
+            worker.process.join()
+        worker.conn.close()
+
+
+def _serve(conn, fn: Callable[[Any], dict], parent: int) -> None:
+    """A worker's life: run the jobs the parent sends, one at a time, and send back each result; end at None, or
+    when the parent is gone."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the bench's to handle: it stops its workers itself
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    _end_with_parent(parent)
+    while True:
+        try:
+            job = conn.recv()
+        except (EOFError, OSError):  # the parent has gone
+            return
+        if job is None:
+            return
+        try:
+            result = fn(job)
+        except BaseException as exc:  # jobs.execute never raises; another ``fn`` might
+            result = failed(describe(exc))
+        try:
+            conn.send(result)
+        except (BrokenPipeError, ConnectionResetError):
+            return
+        except Exception as exc:  # a result that cannot be pickled (nothing was sent)
+            conn.send(failed(f"its result could not be sent back ({describe(exc)})"))
+
+
+def _end_with_parent(parent: int) -> None:
+    """Have this process end when its parent does, however the parent ends (SIGKILL included)."""
+    if sys.platform.startswith("linux"):
+        pr_set_pdeathsig = 1
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
+    else:
+        def watch():
+            while os.getppid() == parent:
+                time.sleep(1.0)
+            os._exit(1)
+
+        threading.Thread(target=watch, daemon=True, name="morphbench-parent-watch").start()
+    if os.getppid() != parent:  # the parent ended before the request above was made
+        os._exit(1)
 
 
 class DaskExecutor:
     """A Dask distributed cluster: ``scheduler`` is its address (``tcp://host:8786``) or a ``dask.distributed.Client``
-    (then it is used as is and not closed). Workers need morphbench (and any plug-in learner) importable."""
+    (then it is used as is and not closed). Workers need morphbench (and any plug-in learner) importable. A job that
+    takes its worker down is tried on others first (Dask's ``distributed.scheduler.allowed-failures``), then comes
+    back failed (``jobs.lost``); Dask reschedules the jobs queued on a dead worker itself (each counted suspect once:
+    ``distributed.scheduler.worker-saturation`` 1.0 queues none)."""
 
     def __init__(self, scheduler: Any, timeout: float = 20.0):
         self.scheduler, self.timeout = scheduler, timeout
@@ -93,8 +222,12 @@ class DaskExecutor:
                 job = by_key[future.key]
                 try:
                     result = future.result()
-                except Exception as exc:  # KilledWorker (the job took its workers down), a lost connection, ...
-                    result = {"status": "failed", "error": describe(exc), "traceback": None, "wall_time_s": None}
+                except distributed.KilledWorker as exc:  # the job took every worker that ran it down
+                    last = getattr(exc.last_worker, "address", exc.last_worker)
+                    before = f" and {exc.allowed_failures} before it" if exc.allowed_failures else ""
+                    result = lost(f"Dask worker {last}{before}")
+                except Exception as exc:  # a lost connection, ...
+                    result = failed(describe(exc))
                 future.release()
                 yield job, result
         finally:

@@ -30,16 +30,27 @@ def execute(job) -> dict[str, Any]:
     started = time.perf_counter()
     try:
         result = _finished(run(job.payload)) if job.kind == "run" else _scan(job.payload)
-    except (Exception, SystemExit) as exc:
-        result = _failure(exc)
+    except BaseException as exc:  # a plug-in's KeyboardInterrupt or SystemExit too: a worker ignores Ctrl-C
+        result = _failure(exc)  # (bench/executors.py), so whatever reaches here was raised by the job's own code
     return _complete(result, time.perf_counter() - started)
+
+
+def failed(error: str) -> dict[str, Any]:
+    """The result of a job that could not even report its own failure (e.g. a result that cannot be pickled)."""
+    return {"status": "failed", "error": error, "traceback": None, "wall_time_s": None}
+
+
+def lost(reason: str) -> dict[str, Any]:
+    """The result of a job whose worker died under it (``reason``: 'signal SIGSEGV', 'exit code 3', ...): failed,
+    with ``crashes`` 1, which the runner adds to the job's earlier crashes (it runs a job that crashed once again)."""
+    return {**failed(f"worker died: {reason}"), "crashes": 1}
 
 
 def _batch(jobs) -> list[dict[str, Any]]:
     started = time.perf_counter()
     try:
         outcomes = run_batch([job.payload for job in jobs])
-    except (Exception, SystemExit):  # the batch as a whole could not run: each run alone says why it cannot
+    except BaseException:  # the batch as a whole could not run: each run alone says why it cannot
         return [execute(job) for job in jobs]
     wall = (time.perf_counter() - started) / len(jobs)
     return [_complete(_failure(outcome) if isinstance(outcome, BaseException) else _finished(outcome), wall)
@@ -55,7 +66,8 @@ def _complete(result: dict[str, Any], wall_time: float) -> dict[str, Any]:
 
 def _failure(exc: BaseException) -> dict[str, Any]:
     """A failed job's result: a ConfigError or PhysicsError by its own one line (naming the plug-in or body, what
-    and where), anything else (a plug-in calling sys.exit() fails its run, not the suite) described."""
+    and where), anything else (a plug-in calling sys.exit() or raising KeyboardInterrupt fails its run, not the
+    suite) described."""
     error = str(exc) if isinstance(exc, (ConfigError, PhysicsError)) else describe(exc)
     trace = "".join(traceback.format_exception(exc))
     return {"status": "failed", "error": error, "traceback": trace}

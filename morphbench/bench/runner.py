@@ -9,9 +9,10 @@ from __future__ import annotations
 import dataclasses
 import sys
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 import pandas as pd
 
@@ -23,6 +24,7 @@ from morphbench.bench.suite import Job, Suite
 from morphbench.experiment.batch import batchable
 from morphbench.experiment.run import RunConfig
 from morphbench.errors import ConfigError
+from morphbench.files import directory_lock
 
 
 BATCH_SEEDS = 28
@@ -52,49 +54,80 @@ def run_suite(suite: Suite, out: str | Path, executor=None, *, resume: bool = Fa
     """Run every job of ``suite`` that ``out`` does not hold yet, then consolidate the tables (morphbench.bench.store).
 
     ``out`` may hold this suite's earlier (interrupted) results: its finished jobs are skipped, failed ones too
-    unless ``retry_failed``. If it holds results of a different suite, or of an earlier version of this one, it is
-    refused unless ``resume``: then the finished jobs both suites share are reused. ``on_result(job, result)`` is
-    called after each job is saved; an exception it raises (like Ctrl-C) stops the suite with every finished job
-    saved and the rest cancelled. Seeds of a condition on the quasi-static chain model run together, up to
-    ``batch_seeds`` at a time (default BATCH_SEEDS; 1: each alone), with the same results.
+    unless ``retry_failed``, but for a job whose worker died under it once (a crash may have been another's doing:
+    the memory of the machine, a kill), which is run once more. If it holds results of a different suite, or of an
+    earlier version of this one, it is refused unless ``resume``: then the finished jobs both suites share are
+    reused. One process at a time writes ``out`` (``files.directory_lock``): another is refused. ``on_result(job,
+    result)`` is called after each job is saved; an exception it raises (like Ctrl-C) stops the suite with every
+    finished job saved and the rest cancelled. Seeds of a condition on the quasi-static chain model run together, up
+    to ``batch_seeds`` at a time (default BATCH_SEEDS; 1: each alone), with the same results; a batch whose worker
+    dies is run again seed by seed, so that only the seed that crashes fails.
     """
     started, started_at = time.perf_counter(), time.time()
     executor = executor or LocalExecutor()
-    store = Store(out)
-    _check_directory(store, suite, resume)
-    store.clean_temporaries()
-    plan = suite.plan()
-    store.write_plan(plan, suite.text)
-    jobs = suite.jobs()
-    todo = [job for job in jobs if _needs_run(store, job, retry_failed)]
-    outcome = Outcome(total=len(jobs), skipped=len(jobs) - len(todo))
-    bar = _progress_bar(suite, todo, executor, progress)
-    # longest first: the long runs start early and the short ones fill the gaps at the end (tables are in plan order)
-    work = sorted(batched(todo, batch_seeds or BATCH_SEEDS), key=lambda job: -job.cost)
-    try:
-        for work_job, work_result in executor.run(work, execute):
-            pairs = zip(work_job.payload, work_result["results"]) if work_job.kind == "batch" else \
-                [(work_job, work_result)]
-            for job, result in pairs:
-                store.save(job, result)
-                if result["status"] == "done":
-                    outcome.done += 1
-                else:
-                    outcome.failed += 1
-                    outcome.failures.append((job.id, result.get("error") or "unknown error"))
-                if bar is not None:
-                    bar.update(job.cost)
-                    bar.set_postfix_str(f"{outcome.done + outcome.failed}/{len(todo)} jobs, {outcome.failed} failed")
-                if on_result is not None:
-                    on_result(job, result)
-    finally:
-        if bar is not None:
-            bar.close()
-        if outcome.done or outcome.failed:  # the versions these jobs ran with, for the report
-            record_session(store.root, started_at, executor.describe(), outcome.done, outcome.failed)
-    outcome.tables = store.consolidate(plan)
+    with writing(suite, out, resume) as store:
+        store.clean_temporaries()
+        plan = suite.plan()
+        store.write_plan(plan, suite.text)
+        jobs = suite.jobs()
+        todo = [job for job in jobs if _needs_run(store, job, retry_failed)]
+        outcome = Outcome(total=len(jobs), skipped=len(jobs) - len(todo))
+        bar = _progress_bar(suite, todo, executor, progress)
+        # longest first: the long runs start early and the short ones fill the gaps at the end (tables are in plan
+        # order)
+        work = sorted(batched(todo, batch_seeds or BATCH_SEEDS), key=lambda job: -job.cost)
+        try:
+            while work:
+                work = _run_round(work, executor, store, outcome, bar, len(todo), on_result)
+        finally:
+            if bar is not None:
+                bar.close()
+            if outcome.done or outcome.failed:  # the versions these jobs ran with, for the report
+                record_session(store.root, started_at, executor.describe(), outcome.done, outcome.failed)
+        outcome.tables = store.consolidate(plan)
     outcome.wall_time_s = time.perf_counter() - started
     return outcome
+
+
+@contextmanager
+def writing(suite: Suite, out: str | Path, resume: bool = False) -> Iterator[Store]:
+    """The store of ``out``, held by this process for ``suite`` while the block runs (``run_suite`` holds it itself;
+    ``morphbench bench`` holds it over the report too). Refused (ConfigError) if ``out`` is a file, holds another
+    suite (unless ``resume``) or is held by another process; a directory refused is refused before anything is
+    written in it."""
+    store = Store(out)
+    _check_directory(store, suite, resume)
+    _make_directory(store.root)
+    with directory_lock(store.root):
+        _check_directory(store, suite, resume)  # again, held: another bench may have written it meanwhile
+        yield store
+
+
+def _run_round(work: list[Job], executor, store: Store, outcome: Outcome, bar, n_todo: int,
+               on_result: Callable[[Job, dict], None] | None) -> list[Job]:
+    """Run ``work`` and save each job as it ends; the runs of the batches whose worker died, to run one by one."""
+    again: list[Job] = []
+    for work_job, work_result in executor.run(work, execute):
+        if work_job.kind == "batch" and work_result.get("crashes"):
+            again.extend(work_job.payload)
+            continue
+        pairs = zip(work_job.payload, work_result["results"]) if work_job.kind == "batch" else \
+            [(work_job, work_result)]
+        for job, result in pairs:
+            if result.get("crashes"):
+                result["crashes"] += _crashes(store.load(job.kind, job.id, tables=False).result)
+            store.save(job, result)
+            if result["status"] == "done":
+                outcome.done += 1
+            else:
+                outcome.failed += 1
+                outcome.failures.append((job.id, result.get("error") or "unknown error"))
+            if bar is not None:
+                bar.update(job.cost)
+                bar.set_postfix_str(f"{outcome.done + outcome.failed}/{n_todo} jobs, {outcome.failed} failed")
+            if on_result is not None:
+                on_result(job, result)
+    return again
 
 
 def batched(jobs: list[Job], size: int = BATCH_SEEDS) -> list[Job]:
@@ -120,8 +153,26 @@ def batched(jobs: list[Job], size: int = BATCH_SEEDS) -> list[Job]:
 
 
 def _needs_run(store: Store, job: Job, retry_failed: bool) -> bool:
-    status = store.status(job.kind, job.id)
-    return status is None or (retry_failed and status != "done")
+    """Whether ``job`` runs: not run yet; failed and ``retry_failed``; or failed by its worker's death only once. A
+    damaged job runs only with ``retry_failed`` (``morphbench check --repair`` sets it aside otherwise)."""
+    loaded = store.load(job.kind, job.id, tables=False)
+    if loaded.status == "missing":
+        return True
+    return loaded.status != "done" and (retry_failed or _crashes(loaded.result) == 1)
+
+
+def _crashes(result: dict | None) -> int:
+    """How many times a job's workers died under it, as its result.json says (0 for a job not failed so)."""
+    result = result or {}
+    return (result.get("crashes") or 0) if result.get("status") == "failed" else 0
+
+
+def _make_directory(root: Path) -> None:
+    """``root`` as a directory, created if need be (the lock that guards it lives in it)."""
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError("--out", str(root), f"a directory that can be created ({exc.strerror})") from None
 
 
 def _check_directory(store: Store, suite: Suite, resume: bool) -> None:
@@ -133,10 +184,6 @@ def _check_directory(store: Store, suite: Suite, resume: bool) -> None:
         if root.is_dir() and any(p for p in root.iterdir() if not p.name.startswith(".")) and not resume:
             raise ConfigError("--out", str(root), "a new or empty directory, or one written by 'morphbench bench' "
                                                   "(pass --resume to use it anyway)")
-        try:
-            root.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ConfigError("--out", str(root), f"a directory that can be created ({exc.strerror})") from None
         return
     same = old.get("suite") == suite.name and _job_ids(old) == {job.id for job in suite.jobs()}
     if not same and not resume:

@@ -56,6 +56,7 @@ import pyarrow.parquet as pq
 from morphbench.errors import ConfigError
 from morphbench.failures import describe
 from morphbench.experiment.records import STEP_COLUMNS, atomic_write
+from morphbench.files import is_stale
 
 KIND_DIRS = {"run": "runs", "scan": "scans"}
 RESULT = "result.json"
@@ -83,8 +84,9 @@ JOB_SCHEMAS: dict[str, dict[str, tuple[str, bool, bool]]] = {
               "u_heading": (FLOAT, False, False)},
     "units": {"step": (INT, True, True), "unit": (INT, True, True), "position": (INT, False, True),
               "piece": (INT, False, True), "phase_tried": (FLOAT, True, False), "phase_kept": (FLOAT, True, False),
-              "u_measured": (FLOAT, True, False), "u_true": (FLOAT, True, False), "accepted": (BOOL, True, True),
-              "x_m": (FLOAT, False, False), "y_m": (FLOAT, False, False), "heading_rad": (FLOAT, False, False)},
+              "u_measured": (FLOAT, True, False), "u_true": (FLOAT, True, False), "u_memory": (FLOAT, False, False),
+              "accepted": (BOOL, True, True), "x_m": (FLOAT, False, False), "y_m": (FLOAT, False, False),
+              "heading_rad": (FLOAT, False, False)},
 }
 """The tables of a run's directory (experiment/records.py), column -> (Arrow type, required, finite). Columns the
 records gained later are not required (results stored before them lack them); no float is ever infinite, and NaN
@@ -200,6 +202,8 @@ class Store:
             meta = {"job_id": job.id, "kind": job.kind, "status": result["status"], "error": result.get("error"),
                     "traceback": result.get("traceback"), "wall_time_s": result.get("wall_time_s"),
                     "summary": result.get("summary")}
+            if result.get("crashes"):  # times its worker died (bench/runner.py runs such a job once more)
+                meta["crashes"] = result["crashes"]
             (tmp / RESULT).write_text(json.dumps(meta, indent=2, sort_keys=True, default=_json_default) + "\n")
             if self.status(job.kind, job.id) == DAMAGED:  # run again (--retry-failed): kept, as check --repair does
                 self.set_aside([final])
@@ -229,17 +233,20 @@ class Store:
         return moved
 
     def clean_temporaries(self) -> int:
-        """Remove what a killed bench left half-written (temporary job directories and files)."""
+        """Remove what a killed bench left half-written (temporary job directories and files); a temporary of a
+        process still running is its to finish (files.is_stale)."""
         removed = 0
         for sub in KIND_DIRS.values():
             folder = self.root / sub
             if folder.is_dir():
                 for path in folder.glob(".tmp-*"):
-                    shutil.rmtree(path, ignore_errors=True)
-                    removed += 1
+                    if is_stale(path):
+                        shutil.rmtree(path, ignore_errors=True)
+                        removed += 1
         for path in self.root.glob(".*.tmp-*"):
-            path.unlink(missing_ok=True)
-            removed += 1
+            if is_stale(path):
+                path.unlink(missing_ok=True)
+                removed += 1
         return removed
 
     # --- the plan ---
