@@ -151,7 +151,7 @@ def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, 
 @numba.njit(cache=True)
 def _solve_spd(K, b):
     """x with K x = b for a symmetric positive definite K (banded Cholesky: a lattice's bodies in row order couple
-    only within a few rows, so the band is narrow; K is overwritten)."""
+    only within a few rows, so the band is narrow; K is overwritten); NaN if K is not definite to rounding."""
     m = len(b)
     band = 0
     for i in range(m):
@@ -164,6 +164,8 @@ def _solve_spd(K, b):
         d = K[j, j]
         for p in range(first, j):
             d -= K[j, p] * K[j, p]
+        if not d > 0.0:  # not definite to rounding: no step (the caller falls back on a proximal gradient step)
+            return np.full(m, np.nan)
         d = np.sqrt(d)
         K[j, j] = d
         for i in range(j + 1, min(m, j + band + 1)):
@@ -184,6 +186,14 @@ def _solve_spd(K, b):
 
 
 @numba.njit(cache=True)
+def _apply_root(n, root, x):
+    """x <- (n n^T + root (I - n n^T)) x, in place (a 3-vector; n a unit vector)."""
+    along = n[0] * x[0] + n[1] * x[1] + n[2] * x[2]
+    for j in range(3):
+        x[j] = root * x[j] + (1.0 - root) * along * n[j]
+
+
+@numba.njit(cache=True)
 def _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma, grad, hess, v, prox):
     """The proximal-gradient residual z - prox(z - gamma grad) in the scaled increments z = (dx, dy, rho dtheta);
     fills ``v`` (the gradient step), ``prox`` and the smooth part's gradient and Hessian (in z). Returns its largest
@@ -196,19 +206,22 @@ def _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, l
     for a in range(3 * n):
         grad[a] /= scale[a]
         for b in range(3 * n):
-            hess[a, b] /= scale[a] * scale[b]
-    worst = 0.0
+            if hess[a, b] != 0.0:  # most entries are 0 (bodies far apart); a division costs more than the test
+                hess[a, b] /= scale[a] * scale[b]
+    worst, total = 0.0, 0.0
     for i in range(n):
         norm = 0.0
         for j in range(3):
             v[3 * i + j] = z[3 * i + j] - gamma * grad[3 * i + j]
             norm += v[3 * i + j] ** 2
+            total += z[3 * i + j]
         norm = np.sqrt(norm)
         shrink = max(0.0, 1.0 - gamma * limits[i] / norm) if norm > 0.0 else 0.0
         for j in range(3):
             prox[3 * i + j] = shrink * v[3 * i + j]
             worst = max(worst, abs(z[3 * i + j] - prox[3 * i + j]) / gamma)
-    return worst
+    # max() passes NaN over: increments that are not finite must never pass for a solution or an improvement
+    return worst if np.isfinite(total) else np.inf
 
 
 @numba.njit(cache=True)
@@ -220,8 +233,8 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
     Semismooth Newton on the fixed point z = prox(z - gamma grad f(z)) of the proximal gradient method (the prox
     of the friction term shrinks each body's scaled increment towards 0 by gamma w_i): where the gradient step leaves
     a body inside its friction ball it sticks (z_i = 0), elsewhere the Newton system couples the sliding bodies
-    through the springs and a tangential friction stiffness w_i / (|v_i| - gamma w_i). A step that does not reduce
-    the residual falls back to the proximal gradient step itself, which always reduces the energy.
+    through the springs and the friction's stiffness across their motion. A step that does not reduce the residual
+    (or has no finite value) falls back to the proximal gradient step itself, which always reduces the energy.
 
     ``scale`` is the friction metric (1, 1, rho) per body; the other arrays are workspace (the gradient, Hessian,
     gradient step and prox of the current and of the trial increments), overwritten."""
@@ -264,40 +277,57 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
                     for j in range(3):
                         dofs[c] = 3 * i + j
                         c += 1
+            # The Newton system J dz = -r (J = I - D (I - gamma H), D = d prox: n n^T + (1 - t)(I - n n^T) for a
+            # body sliding along n, t = gamma w / |v|) made symmetric by S = D^(1/2): dz = S y with
+            # (S H S + t / gamma (I - n n^T)) y = -S^-1 r / gamma - S H dz_sticking. Dividing by D instead (the
+            # friction's curvature w / |z| across the motion) overflows for a body that barely slides.
+            nrm = np.empty((count, 3))
+            root = np.empty(count)
+            across = np.empty(count)
+            for c in range(count):
+                i = dofs[3 * c] // 3
+                norm = np.sqrt(v[3 * i] ** 2 + v[3 * i + 1] ** 2 + v[3 * i + 2] ** 2)
+                t = gamma * limits[i] / norm
+                root[c] = np.sqrt(1.0 - t)
+                across[c] = t / gamma
+                for j in range(3):
+                    nrm[c, j] = v[3 * i + j] / norm
             M = np.empty((m, m))
             rhs = np.empty(m)
             for a in range(m):
-                for b in range(m):
-                    M[a, b] = hess[dofs[a], dofs[b]]
-                M[a, a] += floor
                 acc = 0.0
                 for b in range(3 * n):
                     acc += hess[dofs[a], b] * dz[b]  # the sticking bodies' return to rest
                 rhs[a] = -acc
             for c in range(count):
+                for d in range(count):  # S_c H_cd S_d, block by block (most blocks are 0: bodies far apart)
+                    nonzero = False
+                    for j in range(3):
+                        for col in range(3):
+                            M[3 * c + j, 3 * d + col] = h = hess[dofs[3 * c + j], dofs[3 * d + col]]
+                            nonzero = nonzero or h != 0.0
+                    if nonzero:
+                        for j in range(3):
+                            _apply_root(nrm[d], root[d], M[3 * c + j, 3 * d:3 * d + 3])
+                        for col in range(3):
+                            _apply_root(nrm[c], root[c], M[3 * c:3 * c + 3, 3 * d + col])
+                _apply_root(nrm[c], root[c], rhs[3 * c:3 * c + 3])
                 i = dofs[3 * c] // 3
-                norm = np.sqrt(v[3 * i] ** 2 + v[3 * i + 1] ** 2 + v[3 * i + 2] ** 2)
-                t = gamma * limits[i] / norm
-                tangential = limits[i] / (norm - gamma * limits[i])
-                nrm = np.empty(3)
-                r = np.empty(3)
+                r = z[3 * i:3 * i + 3] - prox[3 * i:3 * i + 3]
+                _apply_root(nrm[c], 1.0 / root[c], r)
                 for j in range(3):
-                    nrm[j] = v[3 * i + j] / norm
-                    r[j] = z[3 * i + j] - prox[3 * i + j]
-                radial = nrm[0] * r[0] + nrm[1] * r[1] + nrm[2] * r[2]
-                for j in range(3):
-                    # D^-1 r / gamma, with D^-1 = (I - n n^T) / (1 - t) + n n^T
-                    rhs[3 * c + j] -= ((r[j] - radial * nrm[j]) / (1.0 - t) + radial * nrm[j]) / gamma
+                    rhs[3 * c + j] -= r[j] / gamma
+                    M[3 * c + j, 3 * c + j] += floor + across[c]
                     for col in range(3):
-                        h = -nrm[j] * nrm[col]
-                        if j == col:
-                            h += 1.0
-                        M[3 * c + j, 3 * c + col] += tangential * h
+                        M[3 * c + j, 3 * c + col] -= across[c] * nrm[c, j] * nrm[c, col]
             step = _solve_spd(M, rhs)
+            for c in range(count):
+                _apply_root(nrm[c], root[c], step[3 * c:3 * c + 3])
             for a in range(m):
                 dz[dofs[a]] = step[a]
         length = 1.0
-        for _ in range(12):
+        t_worst = np.inf
+        for _ in range(12 if np.all(np.isfinite(dz)) else 0):
             trial = z + length * dz
             t_worst = _residual(q, trial, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma,
                                 t_grad, t_hess, t_v, t_prox)
