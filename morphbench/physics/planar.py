@@ -34,6 +34,10 @@ from morphbench.shapes.model import Shape
 _FLAT_TOLERANCE = 1e-9  # m: bodies whose centres differ in height by more than this are not on one layer
 FORCE_TOLERANCE = 1e-10
 """N, largest force imbalance (and stick-condition violation) a solve leaves."""
+SUFFICIENT = 1e-4
+"""the least fraction of the residual a Newton step must remove to be taken."""
+ENVELOPE_ROUNDING = 1e-12
+"""relative rise of the envelope a Newton step may make: its rounding near the solution, not a real rise."""
 
 
 def check_one_layer(shape: Shape) -> None:
@@ -109,7 +113,8 @@ class PlanarWorld(QuasiStatic):
 @numba.njit(cache=True)
 def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, hess):
     """Add the gradient and the (generalised) Hessian of the links' elastic energy at increments ``u`` (linearised
-    strains about ``q``) into ``grad`` and ``hess``."""
+    strains about ``q``) into ``grad`` and ``hess``; returns that energy (J)."""
+    energy = 0.0
     jac = np.empty((3, 6))
     strain = np.empty(3)
     index = np.empty(6, dtype=np.int64)
@@ -138,14 +143,17 @@ def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, 
             if m == 0 and abs(k * z) > cap:  # the bellows gives way at its force cap: linear energy, no stiffness
                 force = cap if z > 0 else -cap
                 curvature = 0.0
+                energy += cap * abs(z) - 0.5 * cap * cap / k
             else:
                 force = k * z
                 curvature = k
+                energy += 0.5 * k * z * z
             for j in range(6):
                 grad[index[j]] += force * jac[m, j]
                 if curvature != 0.0:
                     for i in range(6):
                         hess[index[i], index[j]] += curvature * jac[m, i] * jac[m, j]
+    return energy
 
 
 @numba.njit(cache=True)
@@ -197,31 +205,36 @@ def _apply_root(n, root, x):
 def _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma, grad, hess, v, prox):
     """The proximal-gradient residual z - prox(z - gamma grad) in the scaled increments z = (dx, dy, rho dtheta);
     fills ``v`` (the gradient step), ``prox`` and the smooth part's gradient and Hessian (in z). Returns its largest
-    entry over gamma: the largest force imbalance (N)."""
+    entry over gamma (the largest force imbalance, N) and the forward-backward envelope at z (J): the energy f + h
+    (springs f, friction h) of the proximal gradient step's linear model, f(z) + grad (p - z) + |p - z|^2 / 2 gamma
+    + h(p) at p = prox. It is at least the energy at p, and the step lowers it by at least |p - z|^2 (1 / gamma -
+    L) / 2 (L the largest curvature of f): the merit that makes the solver converge (``_solve_tick``)."""
     n = len(limits)
     u = z / scale
     grad[:] = 0.0
     hess[:, :] = 0.0
-    _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, hess)
+    envelope = _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, hess)
     for a in range(3 * n):
         grad[a] /= scale[a]
         for b in range(3 * n):
             if hess[a, b] != 0.0:  # most entries are 0 (bodies far apart); a division costs more than the test
                 hess[a, b] /= scale[a] * scale[b]
-    worst, total = 0.0, 0.0
+    worst = 0.0
     for i in range(n):
         norm = 0.0
         for j in range(3):
             v[3 * i + j] = z[3 * i + j] - gamma * grad[3 * i + j]
             norm += v[3 * i + j] ** 2
-            total += z[3 * i + j]
         norm = np.sqrt(norm)
         shrink = max(0.0, 1.0 - gamma * limits[i] / norm) if norm > 0.0 else 0.0
+        envelope += limits[i] * shrink * norm
         for j in range(3):
             prox[3 * i + j] = shrink * v[3 * i + j]
-            worst = max(worst, abs(z[3 * i + j] - prox[3 * i + j]) / gamma)
+            step = prox[3 * i + j] - z[3 * i + j]
+            envelope += grad[3 * i + j] * step + 0.5 * step * step / gamma
+            worst = max(worst, abs(step) / gamma)
     # max() passes NaN over: increments that are not finite must never pass for a solution or an improvement
-    return worst if np.isfinite(total) else np.inf
+    return (worst, envelope) if np.isfinite(envelope) else (np.inf, np.inf)
 
 
 @numba.njit(cache=True)
@@ -252,8 +265,8 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
         top = max(top, row)
     gamma = 1.0 / max(top, 1e-12)
     floor = 1e-9 * top  # keeps the Newton system definite where a sliding group's motion is undetermined to first order
-    worst = _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma, grad, hess, v,
-                      prox)
+    worst, merit = _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma, grad,
+                             hess, v, prox)
     dz = np.empty(3 * n)
     for iterations in range(200):
         if worst <= FORCE_TOLERANCE:
@@ -325,21 +338,26 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
                 _apply_root(nrm[c], root[c], step[3 * c:3 * c + 3])
             for a in range(m):
                 dz[dofs[a]] = step[a]
+        # A Newton step is taken if it lowers the residual by a fixed fraction without raising the envelope; else
+        # the proximal gradient step, which lowers the envelope by |r|^2 (1 / gamma - L) / 2 and does not raise
+        # the residual's norm. So neither undoes the other, and the residual goes to 0 from any start (alternating
+        # them on the residual alone could cycle: a grid with frictionless bodies never converged).
         length = 1.0
-        t_worst = np.inf
+        newton = False
         for _ in range(12 if np.all(np.isfinite(dz)) else 0):
             trial = z + length * dz
-            t_worst = _residual(q, trial, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma,
-                                t_grad, t_hess, t_v, t_prox)
-            if t_worst < worst:
+            t_worst, t_merit = _residual(q, trial, scale, front, rear, axes, intact, stiffness, cap, lengths, limits,
+                                         gamma, t_grad, t_hess, t_v, t_prox)
+            if t_worst < (1.0 - SUFFICIENT) * worst and t_merit <= merit + ENVELOPE_ROUNDING * abs(merit):
+                newton = True
                 break
             length *= 0.5
-        if not t_worst < worst:
+        if not newton:
             trial = prox.copy()  # the proximal gradient step
-            t_worst = _residual(q, trial, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma,
-                                t_grad, t_hess, t_v, t_prox)
+            t_worst, t_merit = _residual(q, trial, scale, front, rear, axes, intact, stiffness, cap, lengths, limits,
+                                         gamma, t_grad, t_hess, t_v, t_prox)
         z = trial
-        worst = t_worst
+        worst, merit = t_worst, t_merit
         grad, t_grad, hess, t_hess, v, t_v, prox, t_prox = t_grad, grad, t_hess, hess, t_v, v, t_prox, prox
     u[:] = z / scale
     return -1
