@@ -15,9 +15,11 @@ is the ellipsoidal approximation of the limit surface, which keeps the energy co
 Each tick the links' strains are linearised about the current poses (computed exactly, so errors do not add up over
 ticks) and the convex problem is solved to a force tolerance by a semismooth Newton method: the bodies that slide
 satisfy force balance with friction opposing their motion, the others satisfy the stick condition
-|spring force| <= w_i (the torque scaled by rho_i). The Newton systems are banded (bodies couple only to their
-neighbours, which a lattice lists within a row of each other), so a 100-body sheet costs about a row's width squared
-per body.
+|spring force| <= w_i (the torque scaled by rho_i). A Newton step is taken only where it lowers the residual without
+raising the forward-backward envelope (a merit whose minimisers are the energy's), else a proximal gradient step that
+lowers it for sure: the solve converges from any start, frictionless bodies and bodies on the verge of sliding
+included (tests/test_planar_seeds.py). The Newton systems are banded (bodies couple only to their neighbours, which
+a lattice lists within a row of each other), so a 100-body sheet costs about a row's width squared per body.
 """
 
 from __future__ import annotations
