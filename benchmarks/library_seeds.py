@@ -2,7 +2,7 @@
 physics left the model's validity), shape by shape. A solver that breaks on 1 seed in 20 shows here, not in a
 benchmark's few seeds.
 
-    python benchmarks/library_seeds.py       # seeds 0-99, every shape: about 40 min on 2 idle cores, 60% sheet-10x10
+    python benchmarks/library_seeds.py       # seeds 0-99, every shape: about 40 min on 2 cores, 40% sheet-10x10
     python benchmarks/library_seeds.py --shapes grid-3x3,t-5 --seeds 0-19 --out /tmp/seeds.md
 
 Each run is the CLI's (``experiment.run``): the ideal sensor (the cheapest; the physics is what is tested), the thermal

@@ -159,14 +159,14 @@ def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, 
 
 
 @numba.njit(cache=True)
-def _solve_spd(K, b, reach):
+def _solve_spd(K, b, width):
     """x with K x = b for a symmetric positive definite K (banded Cholesky: a lattice's bodies in row order couple
     only within a few rows, so the band is narrow; K is overwritten); NaN if K is not definite to rounding. K is 0
-    beyond ``reach`` of its diagonal."""
+    more than ``width`` off its diagonal."""
     m = len(b)
     band = 0
     for i in range(m):
-        for j in range(max(0, i - reach), i):
+        for j in range(max(0, i - width), i):
             if K[i, j] != 0.0:
                 band = max(band, i - j)
                 break
@@ -273,8 +273,9 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
     Semismooth Newton on the fixed point z = prox(z - gamma grad f(z)) of the proximal gradient method (the prox
     of the friction term shrinks each body's scaled increment towards 0 by gamma w_i): where the gradient step leaves
     a body inside its friction ball it sticks (z_i = 0), elsewhere the Newton system couples the sliding bodies
-    through the springs and the friction's stiffness across their motion. A step that does not reduce the residual
-    (or has no finite value) falls back to the proximal gradient step itself, which always reduces the energy.
+    through the springs and the friction's stiffness across their motion. A step that does not lower the residual
+    without raising the forward-backward envelope (or has no finite value) gives way to the proximal gradient step
+    itself, which always lowers the envelope (see the line search).
 
     ``scale`` is the friction metric (1, 1, rho) per body; the other arrays are workspace (the gradient, Hessian,
     gradient step and prox of the current and of the trial increments), overwritten."""
@@ -375,7 +376,7 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
         # A Newton step is taken if it lowers the residual by a fixed fraction without raising the envelope; else
         # the proximal gradient step, which lowers the envelope by |r|^2 (1 / gamma - L) / 2 and does not raise
         # the residual's norm. So neither undoes the other, and the residual goes to 0 from any start (alternating
-        # them on the residual alone could cycle: a grid with frictionless bodies never converged).
+        # them on the residual alone could cycle: most ticks of grids with frictionless bodies never converged).
         length = 1.0
         newton = False
         for _ in range(12 if np.isfinite(np.sum(dz)) else 0):
