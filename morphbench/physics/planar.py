@@ -15,9 +15,11 @@ is the ellipsoidal approximation of the limit surface, which keeps the energy co
 Each tick the links' strains are linearised about the current poses (computed exactly, so errors do not add up over
 ticks) and the convex problem is solved to a force tolerance by a semismooth Newton method: the bodies that slide
 satisfy force balance with friction opposing their motion, the others satisfy the stick condition
-|spring force| <= w_i (the torque scaled by rho_i). The Newton systems are banded (bodies couple only to their
-neighbours, which a lattice lists within a row of each other), so a 100-body sheet costs about a row's width squared
-per body.
+|spring force| <= w_i (the torque scaled by rho_i). A Newton step is taken only where it lowers the residual without
+raising the forward-backward envelope (a merit whose minimisers are the energy's), else a proximal gradient step that
+lowers it for sure: the solve converges from any start, frictionless bodies and bodies on the verge of sliding
+included (tests/test_planar_seeds.py). The Newton systems are banded (bodies couple only to their neighbours, which
+a lattice lists within a row of each other), so a 100-body sheet costs about a row's width squared per body.
 """
 
 from __future__ import annotations
@@ -34,6 +36,10 @@ from morphbench.shapes.model import Shape
 _FLAT_TOLERANCE = 1e-9  # m: bodies whose centres differ in height by more than this are not on one layer
 FORCE_TOLERANCE = 1e-10
 """N, largest force imbalance (and stick-condition violation) a solve leaves."""
+SUFFICIENT = 1e-4
+"""the least fraction of the residual a Newton step must remove to be taken."""
+ENVELOPE_ROUNDING = 1e-12
+"""relative rise of the envelope a Newton step may make: its rounding near the solution, not a real rise."""
 
 
 def check_one_layer(shape: Shape) -> None:
@@ -109,7 +115,8 @@ class PlanarWorld(QuasiStatic):
 @numba.njit(cache=True)
 def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, hess):
     """Add the gradient and the (generalised) Hessian of the links' elastic energy at increments ``u`` (linearised
-    strains about ``q``) into ``grad`` and ``hess``."""
+    strains about ``q``) into ``grad`` and ``hess``; returns that energy (J)."""
+    energy = 0.0
     jac = np.empty((3, 6))
     strain = np.empty(3)
     index = np.empty(6, dtype=np.int64)
@@ -138,24 +145,28 @@ def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, 
             if m == 0 and abs(k * z) > cap:  # the bellows gives way at its force cap: linear energy, no stiffness
                 force = cap if z > 0 else -cap
                 curvature = 0.0
+                energy += cap * abs(z) - 0.5 * cap * cap / k
             else:
                 force = k * z
                 curvature = k
+                energy += 0.5 * k * z * z
             for j in range(6):
                 grad[index[j]] += force * jac[m, j]
                 if curvature != 0.0:
                     for i in range(6):
                         hess[index[i], index[j]] += curvature * jac[m, i] * jac[m, j]
+    return energy
 
 
 @numba.njit(cache=True)
-def _solve_spd(K, b):
+def _solve_spd(K, b, width):
     """x with K x = b for a symmetric positive definite K (banded Cholesky: a lattice's bodies in row order couple
-    only within a few rows, so the band is narrow; K is overwritten)."""
+    only within a few rows, so the band is narrow; K is overwritten); NaN if K is not definite to rounding. K is 0
+    more than ``width`` off its diagonal."""
     m = len(b)
     band = 0
     for i in range(m):
-        for j in range(i):
+        for j in range(max(0, i - width), i):
             if K[i, j] != 0.0:
                 band = max(band, i - j)
                 break
@@ -164,6 +175,8 @@ def _solve_spd(K, b):
         d = K[j, j]
         for p in range(first, j):
             d -= K[j, p] * K[j, p]
+        if not d > 0.0:  # not definite to rounding: no step (the caller falls back on a proximal gradient step)
+            return np.full(m, np.nan)
         d = np.sqrt(d)
         K[j, j] = d
         for i in range(j + 1, min(m, j + band + 1)):
@@ -184,19 +197,55 @@ def _solve_spd(K, b):
 
 
 @numba.njit(cache=True)
+def _reach(front, rear):
+    """The farthest apart (in body order) two linked bodies are: the Hessian is 0 beyond 3 reach + 2 of its
+    diagonal, so its passes keep to that band (a 200-row grid's are 70 times shorter)."""
+    reach = 0
+    for link in range(len(front)):
+        reach = max(reach, abs(front[link] - rear[link]))
+    return reach
+
+
+@numba.njit(cache=True)
+def _clear(hess, reach):
+    """Zero the band of ``hess`` (the rest is 0 from the start and never written)."""
+    size, band = len(hess), 3 * reach + 2
+    if band + 1 >= size:
+        hess[:, :] = 0.0
+        return
+    for a in range(size):
+        for b in range(max(0, a - band), min(size, a + band + 1)):
+            hess[a, b] = 0.0
+
+
+@numba.njit(cache=True)
+def _apply_root(n, root, x):
+    """x <- (n n^T + root (I - n n^T)) x, in place (a 3-vector; n a unit vector)."""
+    along = n[0] * x[0] + n[1] * x[1] + n[2] * x[2]
+    for j in range(3):
+        x[j] = root * x[j] + (1.0 - root) * along * n[j]
+
+
+@numba.njit(cache=True)
 def _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma, grad, hess, v, prox):
     """The proximal-gradient residual z - prox(z - gamma grad) in the scaled increments z = (dx, dy, rho dtheta);
     fills ``v`` (the gradient step), ``prox`` and the smooth part's gradient and Hessian (in z). Returns its largest
-    entry over gamma: the largest force imbalance (N)."""
+    entry over gamma (the largest force imbalance, N) and the forward-backward envelope at z (J): the energy f + h
+    (springs f, friction h) of the proximal gradient step's linear model, f(z) + grad (p - z) + |p - z|^2 / 2 gamma
+    + h(p) at p = prox. It is at least the energy at p, and the step lowers it by at least |p - z|^2 (1 / gamma -
+    L) / 2 (L the largest curvature of f): the merit that makes the solver converge (``_solve_tick``)."""
     n = len(limits)
     u = z / scale
     grad[:] = 0.0
-    hess[:, :] = 0.0
-    _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, hess)
+    reach = _reach(front, rear)
+    _clear(hess, reach)
+    envelope = _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, hess)
+    band = 3 * reach + 2
     for a in range(3 * n):
         grad[a] /= scale[a]
-        for b in range(3 * n):
-            hess[a, b] /= scale[a] * scale[b]
+        for b in range(max(0, a - band), min(3 * n, a + band + 1)):
+            if hess[a, b] != 0.0:  # most entries are 0 (bodies far apart); a division costs more than the test
+                hess[a, b] /= scale[a] * scale[b]
     worst = 0.0
     for i in range(n):
         norm = 0.0
@@ -205,10 +254,14 @@ def _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, l
             norm += v[3 * i + j] ** 2
         norm = np.sqrt(norm)
         shrink = max(0.0, 1.0 - gamma * limits[i] / norm) if norm > 0.0 else 0.0
+        envelope += limits[i] * shrink * norm
         for j in range(3):
             prox[3 * i + j] = shrink * v[3 * i + j]
-            worst = max(worst, abs(z[3 * i + j] - prox[3 * i + j]) / gamma)
-    return worst
+            step = prox[3 * i + j] - z[3 * i + j]
+            envelope += grad[3 * i + j] * step + 0.5 * step * step / gamma
+            worst = max(worst, abs(step) / gamma)
+    # max() passes NaN over: increments that are not finite must never pass for a solution or an improvement
+    return (worst, envelope) if np.isfinite(envelope) else (np.inf, np.inf)
 
 
 @numba.njit(cache=True)
@@ -220,8 +273,9 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
     Semismooth Newton on the fixed point z = prox(z - gamma grad f(z)) of the proximal gradient method (the prox
     of the friction term shrinks each body's scaled increment towards 0 by gamma w_i): where the gradient step leaves
     a body inside its friction ball it sticks (z_i = 0), elsewhere the Newton system couples the sliding bodies
-    through the springs and a tangential friction stiffness w_i / (|v_i| - gamma w_i). A step that does not reduce
-    the residual falls back to the proximal gradient step itself, which always reduces the energy.
+    through the springs and the friction's stiffness across their motion. A step that does not lower the residual
+    without raising the forward-backward envelope (or has no finite value) gives way to the proximal gradient step
+    itself, which always lowers the envelope (see the line search).
 
     ``scale`` is the friction metric (1, 1, rho) per body; the other arrays are workspace (the gradient, Hessian,
     gradient step and prox of the current and of the trial increments), overwritten."""
@@ -229,19 +283,22 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
     z = u * scale
     # gamma below 1 / (largest eigenvalue of the Hessian): the uncapped Hessian's largest row sum (Gershgorin).
     grad[:] = 0.0
-    hess[:, :] = 0.0
+    reach = _reach(front, rear)
+    band = 3 * reach + 2
+    _clear(hess, reach)
     _link_terms(q, np.zeros(3 * n), front, rear, axes, intact, stiffness, np.inf, lengths, grad, hess)
     top = 0.0
     for a in range(3 * n):
         row = 0.0
-        for b in range(3 * n):
+        for b in range(max(0, a - band), min(3 * n, a + band + 1)):
             row += abs(hess[a, b]) / (scale[a] * scale[b])
         top = max(top, row)
     gamma = 1.0 / max(top, 1e-12)
     floor = 1e-9 * top  # keeps the Newton system definite where a sliding group's motion is undetermined to first order
-    worst = _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma, grad, hess, v,
-                      prox)
+    worst, merit = _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma, grad,
+                             hess, v, prox)
     dz = np.empty(3 * n)
+    r = np.empty(3)
     for iterations in range(200):
         if worst <= FORCE_TOLERANCE:
             u[:] = z / scale
@@ -264,52 +321,78 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
                     for j in range(3):
                         dofs[c] = 3 * i + j
                         c += 1
-            M = np.empty((m, m))
-            rhs = np.empty(m)
-            for a in range(m):
-                for b in range(m):
-                    M[a, b] = hess[dofs[a], dofs[b]]
-                M[a, a] += floor
-                acc = 0.0
-                for b in range(3 * n):
-                    acc += hess[dofs[a], b] * dz[b]  # the sticking bodies' return to rest
-                rhs[a] = -acc
+            # The Newton system J dz = -r (J = I - D (I - gamma H), D = d prox: n n^T + (1 - t)(I - n n^T) for a
+            # body sliding along n, t = gamma w / |v|) made symmetric by S = D^(1/2): dz = S y with
+            # (S H S + t / gamma (I - n n^T)) y = -S^-1 r / gamma - S H dz_sticking. Dividing by D instead (the
+            # friction's curvature w / |z| across the motion) overflows for a body that barely slides.
+            nrm = np.empty((count, 3))
+            root = np.empty(count)
+            across = np.empty(count)
             for c in range(count):
                 i = dofs[3 * c] // 3
                 norm = np.sqrt(v[3 * i] ** 2 + v[3 * i + 1] ** 2 + v[3 * i + 2] ** 2)
                 t = gamma * limits[i] / norm
-                tangential = limits[i] / (norm - gamma * limits[i])
-                nrm = np.empty(3)
-                r = np.empty(3)
+                root[c] = np.sqrt(1.0 - t)
+                across[c] = t / gamma
                 for j in range(3):
-                    nrm[j] = v[3 * i + j] / norm
+                    nrm[c, j] = v[3 * i + j] / norm
+            M = np.empty((m, m))
+            rhs = np.empty(m)
+            for a in range(m):
+                acc = 0.0
+                for b in range(max(0, dofs[a] - band), min(3 * n, dofs[a] + band + 1)):
+                    acc += hess[dofs[a], b] * dz[b]  # the sticking bodies' return to rest
+                rhs[a] = -acc
+            for c in range(count):
+                for d in range(count):  # S_c H_cd S_d, block by block (most blocks are 0: bodies far apart)
+                    if abs(dofs[3 * c] - dofs[3 * d]) > 3 * reach:
+                        M[3 * c:3 * c + 3, 3 * d:3 * d + 3] = 0.0
+                        continue
+                    nonzero = False
+                    for j in range(3):
+                        for col in range(3):
+                            M[3 * c + j, 3 * d + col] = h = hess[dofs[3 * c + j], dofs[3 * d + col]]
+                            nonzero = nonzero or h != 0.0
+                    if nonzero:
+                        for j in range(3):
+                            _apply_root(nrm[d], root[d], M[3 * c + j, 3 * d:3 * d + 3])
+                        for col in range(3):
+                            _apply_root(nrm[c], root[c], M[3 * c:3 * c + 3, 3 * d + col])
+                _apply_root(nrm[c], root[c], rhs[3 * c:3 * c + 3])
+                i = dofs[3 * c] // 3
+                for j in range(3):
                     r[j] = z[3 * i + j] - prox[3 * i + j]
-                radial = nrm[0] * r[0] + nrm[1] * r[1] + nrm[2] * r[2]
+                _apply_root(nrm[c], 1.0 / root[c], r)
                 for j in range(3):
-                    # D^-1 r / gamma, with D^-1 = (I - n n^T) / (1 - t) + n n^T
-                    rhs[3 * c + j] -= ((r[j] - radial * nrm[j]) / (1.0 - t) + radial * nrm[j]) / gamma
+                    rhs[3 * c + j] -= r[j] / gamma
+                    M[3 * c + j, 3 * c + j] += floor + across[c]
                     for col in range(3):
-                        h = -nrm[j] * nrm[col]
-                        if j == col:
-                            h += 1.0
-                        M[3 * c + j, 3 * c + col] += tangential * h
-            step = _solve_spd(M, rhs)
+                        M[3 * c + j, 3 * c + col] -= across[c] * nrm[c, j] * nrm[c, col]
+            step = _solve_spd(M, rhs, band)
+            for c in range(count):
+                _apply_root(nrm[c], root[c], step[3 * c:3 * c + 3])
             for a in range(m):
                 dz[dofs[a]] = step[a]
+        # A Newton step is taken if it lowers the residual by a fixed fraction without raising the envelope; else
+        # the proximal gradient step, which lowers the envelope by |r|^2 (1 / gamma - L) / 2 and does not raise
+        # the residual's norm. So neither undoes the other, and the residual goes to 0 from any start (alternating
+        # them on the residual alone could cycle: most ticks of grids with frictionless bodies never converged).
         length = 1.0
-        for _ in range(12):
+        newton = False
+        for _ in range(12 if np.isfinite(np.sum(dz)) else 0):
             trial = z + length * dz
-            t_worst = _residual(q, trial, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma,
-                                t_grad, t_hess, t_v, t_prox)
-            if t_worst < worst:
+            t_worst, t_merit = _residual(q, trial, scale, front, rear, axes, intact, stiffness, cap, lengths, limits,
+                                         gamma, t_grad, t_hess, t_v, t_prox)
+            if t_worst < (1.0 - SUFFICIENT) * worst and t_merit <= merit + ENVELOPE_ROUNDING * abs(merit):
+                newton = True
                 break
             length *= 0.5
-        if not t_worst < worst:
+        if not newton:
             trial = prox.copy()  # the proximal gradient step
-            t_worst = _residual(q, trial, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma,
-                                t_grad, t_hess, t_v, t_prox)
+            t_worst, t_merit = _residual(q, trial, scale, front, rear, axes, intact, stiffness, cap, lengths, limits,
+                                         gamma, t_grad, t_hess, t_v, t_prox)
         z = trial
-        worst = t_worst
+        worst, merit = t_worst, t_merit
         grad, t_grad, hess, t_hess, v, t_v, prox, t_prox = t_grad, grad, t_hess, hess, t_v, v, t_prox, prox
     u[:] = z / scale
     return -1
@@ -327,7 +410,7 @@ def _solve_ticks(q, last, lengths, limits, front, rear, axes, intact, stiffness,
     scale = np.ones(3 * n)  # the friction metric: (1, 1, rho) per body
     scale[2::3] = rho
     vectors = [np.empty(3 * n) for _ in range(6)]
-    hess, t_hess = np.empty((3 * n, 3 * n)), np.empty((3 * n, 3 * n))
+    hess, t_hess = np.zeros((3 * n, 3 * n)), np.zeros((3 * n, 3 * n))
     total, failed = 0, 0
     w = np.empty(n)
     for t in range(lengths.shape[0]):
