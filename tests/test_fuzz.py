@@ -15,7 +15,9 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 
+import fuzz_physics
 import fuzzing
+import pandas as pd
 from conftest import ROOT, SHAPES_DIR
 
 FAST = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -188,3 +190,20 @@ def test_refused_in_a_subprocess(name, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]  # no runs/ in the working directory either
     assert len(lines) == 1, result.stderr
     assert fuzzing.is_error_line(lines[0]), lines[0]
+
+
+@pytest.mark.parametrize("case", fuzz_physics.random_cases(6, seed=3), ids=lambda case: case.short(60))
+def test_extreme_physics_is_refused_or_gives_finite_reachable_velocities(case, tmp_path):
+    assert fuzz_physics.run_case(case, tmp_path / "case").verdict in ("accepted", "refused")
+
+
+def test_the_physics_judge_calls_an_unreachable_velocity_garbage(tmp_path):
+    """A run directory whose velocities no bellows can give: the judge must not call it accepted."""
+    out = tmp_path / "out"
+    fuzzing.run_case(fuzzing.Case("run", "valid", "chain-2", ["run", str(SHAPES_DIR / "chain-2.toml"), "--steps", "1",
+                                                               "--quiet", "--out", str(out)]), tmp_path / "w")
+    assert fuzz_physics._garbage(out) is None
+    units = pd.read_parquet(out / "units.parquet")
+    units.loc[units.index[-1], "u_true"] = 1e3
+    units.to_parquet(out / "units.parquet")
+    assert fuzz_physics._garbage(out).startswith("garbage: a unit at 1e+03 mm/cycle")
