@@ -129,6 +129,18 @@ def measure_all(candidate: dict, seeds: int) -> dict:
     return m
 
 
+def ceiling(u: np.ndarray, step_size: float = 0.1) -> float:
+    """The best expected trial Ubar over kept phase differences, over the peak: both units perturb by uniform(-1, 1)
+    x ``step_size``, so a trial's phase difference spreads as a triangle of half-width 2 ``step_size`` around the
+    kept one (``u``: the curve at evenly spaced phase differences)."""
+    n = len(u)
+    offsets = np.arange(-n // 2, n // 2) / n
+    kernel = np.clip(1 - np.abs(offsets) / (2 * step_size), 0, None)
+    kernel /= kernel.sum()
+    expected = [sum(kernel[j] * u[(i + j - n // 2) % n] for j in range(n)) for i in range(n)]
+    return float(max(expected) / u.max())
+
+
 def _after(tables, column, first, last=None):
     return float(np.mean([t[column].to_numpy()[first:last].mean() for t in tables]))
 
@@ -139,14 +151,18 @@ def _s1(m):
 
 
 def _ueq(tables) -> float:
+    """U_eq of the fit to the seed-averaged curve; NaN where the curve has no plateau in the window (an extrapolated
+    U_eq says little)."""
     fit = fit_exponential(np.arange(len(tables[0])), curve(tables))
-    return float(fit["u_eq"])
+    return float(fit["u_eq"]) if fit.get("plateau", True) else float("nan")
 
 
 FINDINGS = [
     Finding("curve-peak", "2 units: the curve's peak is about 4.5 mm/cycle at a phase difference of about 0.4",
             lambda m: (float(m["curve"].max()), max(0.0, abs(m["curve"].max() - 4.5) - 0.5)
                        + max(0, abs(np.argmax(m["curve"]) / 40 - 0.4) - 0.05) * 10)),
+    Finding("s1-ceiling", "2 units: some kept phase difference gives trials of at least 0.75 of the peak on average "
+            "(what S1's mean needs)", lambda m: (ceiling(m["curve"]), max(0.0, 0.75 - ceiling(m["curve"])) * 4)),
     Finding("s1-ridge", "S1: the per-step Ubar after step 20 is distributed around 4.5 (ridge 4.5 +- 0.5)",
             lambda m: (ridge(_s1(m)), max(0.0, abs(ridge(_s1(m)) - 4.5) - 0.5))),
     Finding("s1-mean", "S1: the mean per-step Ubar after step 20 is at least 0.75 of the curve's peak",
