@@ -141,6 +141,12 @@ def ceiling(u: np.ndarray, step_size: float = 0.1) -> float:
     return float(max(expected) / u.max())
 
 
+def _off(excess: float) -> float:
+    """How far a finding is from holding, given by how much a measure exceeds its bound; a measure that could not
+    be made (NaN) never holds."""
+    return float("inf") if math.isnan(excess) else max(0.0, excess)
+
+
 def _after(tables, column, first, last=None):
     return float(np.mean([t[column].to_numpy()[first:last].mean() for t in tables]))
 
@@ -191,7 +197,7 @@ FINDINGS = [
                        max(0.0, _after(m["s5-thermal"], "ubar_true", 150) - _after(m["s5-flaky"], "ubar_true", 150)))),
     Finding("s9-plateau", "scaling: U_eq at N = 15 and 20 within 20% of each other",
             lambda m: (_ueq(m["s9-20"]) / _ueq(m["s9-15"]),
-                       max(0.0, abs(_ueq(m["s9-20"]) / _ueq(m["s9-15"]) - 1) - 0.2) * 5)),
+                       _off(abs(_ueq(m["s9-20"]) / _ueq(m["s9-15"]) - 1) - 0.2) * 5)),
 ]
 
 
