@@ -15,7 +15,7 @@ from morphbench import params as P
 from morphbench.errors import ConfigError
 from morphbench.experiment.config import load_run_config
 from morphbench.learning import ThermalLearner
-from morphbench.shapes import params_from_table
+from morphbench.readers import params_from_table
 
 from conftest import PARAMETER_CLASSES, ROOT
 
