@@ -30,10 +30,9 @@ from morphbench.params import (
     EnvironmentParams,
     LearnerParams,
     SensorParams,
-    field_option,
-    option_type,
 )
 from morphbench.render.options import add_render_arguments, video_params_from_args
+from morphbench.rules import field_option, option_type
 from morphbench.shapes.cli import add_shapes_commands
 from morphbench.shapes.loader import resolve_shape_path
 

@@ -9,138 +9,35 @@ minimum of about -4.5 near 0.6, no flat stretch) and 2-unit Thermal learners fin
 docs/calibration.md says why each default is what it is, docs/fidelity.md has the figures.
 
 Each field declares its allowed values beside it (``param(default, rule, unit)``: a ``Range``, ``Choices`` or type),
-and that declaration is the only one: ``check`` / ``check_params`` serve every file format (morphology files, run
-configurations, suites, through ``morphbench.shapes.params_from_table``) and the API (learners, sensors, ground and
-video check their parameters when built), ``field_option`` / ``option_type`` build the command-line option types.
-A value is accepted or refused the same way everywhere, with one message: ``SOURCE: KEY: expected ..., got ...``.
+and that declaration is the only one: the rule engine (``morphbench.rules``: ``check`` / ``check_params``) serves
+every file format (morphology files, run configurations, suites, through ``morphbench.readers.params_from_table``)
+and the API (learners, sensors, ground and video check their parameters when built), and its ``field_option`` /
+``option_type`` build the command-line option types. A value is accepted or refused the same way everywhere, with
+one message: ``SOURCE: KEY: expected ..., got ...``. This module holds the declarations only: the dataclasses, the
+limits, the presets and the rules across fields of a run.
 """
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 import math
-import numbers
 from dataclasses import dataclass, field
 from typing import Any, Literal, get_args
 
 from morphbench.errors import ConfigError
+from morphbench.rules import Choices, OfType, Range, StepSpan, between, check_rule, param
+# the rest of the rule engine, still importable from here (new code imports it from morphbench.rules)
+from morphbench.rules import (
+    Rule as Rule,
+    check as check,
+    check_params as check_params,
+    check_plan_size as check_plan_size,
+    expected as expected,
+    field_option as field_option,
+    option_type as option_type,
+    rule_of as rule_of,
+)
 
-# --- what a value may be: declared once per field, checked the same way in files, options and the API -----------
-
-
-@dataclass(frozen=True)
-class Range:
-    """An interval of numbers. An infinite end is allowed only if its side is inclusive: ``Range(0)`` is a finite
-    number >= 0, ``Range(0, math.inf, high_inclusive=True)`` also takes inf."""
-
-    low: float = -math.inf
-    high: float = math.inf
-    low_inclusive: bool = True
-    high_inclusive: bool = False
-    integer: bool = False
-    """only integers (never a bool, never 2.0)."""
-    even: bool = False
-    """only even integers."""
-
-    def accepts(self, value: Any) -> bool:
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral if self.integer else numbers.Real):
-            return False
-        above = value >= self.low if self.low_inclusive else value > self.low  # NaN fails both
-        below = value <= self.high if self.high_inclusive else value < self.high
-        return above and below and not (self.even and value % 2)
-
-    def describe(self) -> str:
-        kind = ("an even integer" if self.even else "an integer") if self.integer else "a number"
-        if math.isfinite(self.low) and math.isfinite(self.high):
-            left, right = "[" if self.low_inclusive else "(", "]" if self.high_inclusive else ")"
-            return f"{kind} in {left}{_number(self.low)}, {_number(self.high)}{right}"
-        takes_inf = (self.low_inclusive and self.low == -math.inf) or (self.high_inclusive and self.high == math.inf)
-        if math.isfinite(self.low):
-            bound = f" {'>=' if self.low_inclusive else '>'} {self.low:g}"
-        elif math.isfinite(self.high):
-            bound = f" {'<=' if self.high_inclusive else '<'} {self.high:g}"
-        else:
-            bound = ""
-        if takes_inf:
-            return f"{kind}{bound} or inf"
-        return f"{kind}{bound}" if self.integer else f"a finite number{bound}"
-
-    def normalize(self, value: Any) -> Any:
-        return int(value) if self.integer else float(value)
-
-    def parse(self, text: str) -> Any:
-        return int(text) if self.integer else float(text)
-
-
-def _number(value: float) -> str:
-    """A bound as a message shows it: whole numbers in full (2**63 - 1, not 9.22337e+18), others with %g."""
-    return (str(int(value)) if float(value).is_integer() and abs(value) < 1e16 or isinstance(value, int)
-            else f"{value:g}")
-
-
-@dataclass(frozen=True)
-class Choices:
-    """One of a few strings (the values users write)."""
-
-    values: tuple[str, ...]
-
-    def accepts(self, value: Any) -> bool:
-        return isinstance(value, str) and value in self.values
-
-    def describe(self) -> str:
-        return f"one of {', '.join(self.values)}"
-
-    def normalize(self, value: Any) -> Any:
-        return value
-
-    def parse(self, text: str) -> Any:
-        return text
-
-
-@dataclass(frozen=True)
-class OfType:
-    """Any value of one type: a flag or a free string."""
-
-    type: type
-    description: str
-
-    def accepts(self, value: Any) -> bool:
-        return isinstance(value, self.type)
-
-    def describe(self) -> str:
-        return self.description
-
-    def normalize(self, value: Any) -> Any:
-        return value
-
-
-@dataclass(frozen=True)
-class StepSpan:
-    """None, or learning steps (first, last) inclusive with 0 <= first <= last, last None for 'to the end'."""
-
-    def accepts(self, value: Any) -> bool:
-        if value is None:
-            return True
-        if not (isinstance(value, (tuple, list)) and len(value) == 2):
-            return False
-        first, last = value
-        step = STEPS
-        return step.accepts(first) and (last is None or (step.accepts(last) and last >= first))
-
-    def describe(self) -> str:
-        return f"None or (first, last) learning steps with 0 <= first <= last <= {MAX_STEPS} (last None: to the end)"
-
-    def normalize(self, value: Any) -> Any:
-        return value if value is None else tuple(value)
-
-
-Rule = Range | Choices | OfType | StepSpan
-
-def between(low: float, high: float, *, low_inclusive: bool = True, integer: bool = False) -> Range:
-    """[low, high] (or (low, high] if not ``low_inclusive``): every field has both ends, chosen for what the simulator
-    can take and what a robot of these units can be."""
-    return Range(low, high, low_inclusive=low_inclusive, high_inclusive=True, integer=integer)
+# --- limits: what a run, a scan and a suite may ask for --------------------------------------------------------
 
 
 MAX_COUNT = 10_000
@@ -199,81 +96,6 @@ friction dominates it; below 10 its gaits part from PyBullet's beyond the target
 two (rms 0.4 mm/cycle over the 2-unit curve, 0.6 over 3-unit phases), and at a friction scale of 1e-6 the
 quasi-static chain-2 still walks at +6.7 mm/cycle where PyBullet's glides at 0 (docs/fidelity.md, "Friction against
 inertia")."""
-
-
-def check_plan_size(count: int, limit: int, bytes_each: int, what: str, source: str, key: str, got: object) -> int:
-    """``count`` if at most ``limit``, else ConfigError naming ``source`` and ``key``, with the memory the plan of
-    ``count`` would take, before anything is built."""
-    if count > limit:
-        size = float(min(count, 10 ** 30) * bytes_each)  # a product of axes may be past float range
-        units = ((1e12, "TB"), (1e9, "GB"), (1e6, "MB"), (1e3, "kB"), (1, "B"))
-        shown = next(f"{size / scale:.3g} {unit}" for scale, unit in units if size >= scale or unit == "B")
-        raise ConfigError(source, key, f"at most {limit:,} {what} (this asks for {count:,}, about {shown} of memory "
-                                       "before anything runs)", got)
-    return count
-
-
-def param(default: Any, rule: Rule, unit: str = "") -> Any:
-    """A dataclass field with its allowed values (``rule``) and the unit its messages name."""
-    return field(default=default, metadata={"rule": rule, "unit": unit})
-
-
-def rule_of(owner: Any, name: str) -> tuple[Rule, str]:
-    """The rule and unit of field ``name`` of a parameter dataclass (class or instance)."""
-    for f in dataclasses.fields(owner):
-        if f.name == name:
-            return f.metadata["rule"], f.metadata["unit"]
-    raise KeyError(f"{owner.__name__ if isinstance(owner, type) else type(owner).__name__} has no field {name!r}")
-
-
-def expected(rule: Rule, unit: str = "") -> str:
-    """What a message says was expected: ``a number in [0, 1] (cycles)``."""
-    return rule.describe() + (f" ({unit})" if unit else "")
-
-
-def check(owner: Any, name: str, value: Any, source: str, key: str | None = None) -> Any:
-    """``value`` for field ``name`` of the parameter dataclass ``owner`` (as a float for a real-valued field), or a
-    ConfigError ``SOURCE: KEY: expected ..., got ...`` (``key`` defaults to the field's name)."""
-    return check_rule(*rule_of(owner, name), value, source, key or name)
-
-
-def check_rule(rule: Rule, unit: str, value: Any, source: str, key: str) -> Any:
-    """``value`` if ``rule`` accepts it (normalised), else ConfigError naming ``source`` and ``key``."""
-    if not rule.accepts(value):
-        raise ConfigError(source, key, expected(rule, unit), value)
-    return rule.normalize(value)
-
-
-def check_params(params: Any, source: str, prefix: str = "") -> Any:
-    """``params`` if every field (and every field of a nested parameter dataclass) is allowed, else ConfigError
-    naming the first bad one (``optical.frame_rate``)."""
-    for f in dataclasses.fields(params):
-        value = getattr(params, f.name)
-        if dataclasses.is_dataclass(value):
-            check_params(value, source, f"{prefix}{f.name}.")
-        else:
-            check_rule(f.metadata["rule"], f.metadata["unit"], value, source, prefix + f.name)
-    return params
-
-
-def option_type(rule: Rule, unit: str = ""):
-    """An argparse ``type=`` that accepts what ``rule`` accepts, with the same message as files get."""
-
-    def parse(text: str) -> Any:
-        try:
-            value = rule.parse(text)
-        except ValueError:
-            value = None
-        if value is None or not rule.accepts(value):
-            raise argparse.ArgumentTypeError(f"expected {expected(rule, unit)}, got {text!r}")
-        return rule.normalize(value)
-
-    return parse
-
-
-def field_option(owner: Any, name: str):
-    """The argparse ``type=`` of field ``name`` of a parameter dataclass."""
-    return option_type(*rule_of(owner, name))
 
 
 SensorKind = Literal["optical", "camera", "ideal"]
@@ -565,7 +387,7 @@ class VideoParams:
     speed: float = param(1.0, between(0, 1e5, low_inclusive=False), "simulated seconds per video second")
     """playback speed: simulated seconds per video second (> 1 is a time-lapse); a frame every speed / fps
     simulated seconds."""
-    steps: tuple[int, int | None] | None = param(None, StepSpan())
+    steps: tuple[int, int | None] | None = param(None, StepSpan(STEPS))
     """learning steps to show, (first, last) inclusive, last None for 'to the end'; None shows every step. Step 0
     includes the warm-up before it."""
     distance: float = param(0.0, between(0, 1000), "m; 0 fits the assembly")

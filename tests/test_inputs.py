@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import morphbench.bench.suite as suite_module
+import morphbench.bench.expand as expand_module
 from morphbench import params as P
 from morphbench.bench.suite import load_suite
 from morphbench.envs import CentralEnv, ParallelEnv
@@ -199,8 +199,8 @@ class CountedId(str):
 def test_suite_expansion_compares_each_run_id_a_bounded_number_of_times(tmp_path, monkeypatch):
     """Checking each seed's run id against a list of the experiment's ids made expansion quadratic in the seeds
     (10^4 seeds 0.9 s, 10^5 57 s); ids are now compared a few times each, whatever the number of seeds."""
-    real = suite_module.stable_hash
-    monkeypatch.setattr(suite_module, "stable_hash", lambda data: CountedId(real(data)))
+    real = expand_module.stable_hash
+    monkeypatch.setattr(expand_module, "stable_hash", lambda data: CountedId(real(data)))
     CountedId.comparisons = 0
     suite = load_suite(suite_file(tmp_path, "seeds = 2000"))
     assert len(suite.runs) == len(suite.experiments[0].run_ids) == 2000

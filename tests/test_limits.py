@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from morphbench import params as P
+from morphbench import rules as R
 from morphbench.cli import EXIT_BAD_INPUT
 from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig
@@ -26,7 +27,7 @@ CHAIN2 = str(SHAPES_DIR / "chain-2.toml")
 def test_every_number_has_two_finite_ends(cls):
     for f in dataclasses.fields(cls):
         rule = f.metadata.get("rule")
-        if isinstance(rule, P.Range) and f.name != "temperature":  # inf is a temperature: accept every trial
+        if isinstance(rule, R.Range) and f.name != "temperature":  # inf is a temperature: accept every trial
             assert math.isfinite(rule.low) and math.isfinite(rule.high), f"{cls.__name__}.{f.name}: {rule}"
             assert rule.accepts(f.default), f"{cls.__name__}.{f.name}"
 

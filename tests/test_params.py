@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 from morphbench import params as P
+from morphbench import rules as R
 from morphbench.errors import ConfigError
 from morphbench.experiment.config import load_run_config
 from morphbench.learning import ThermalLearner
-from morphbench.shapes import params_from_table
+from morphbench.readers import params_from_table
 
 from conftest import PARAMETER_CLASSES, ROOT
 
@@ -27,7 +28,7 @@ def test_every_field_declares_its_allowed_values_and_its_default_is_one(cls):
         if dataclasses.is_dataclass(default):
             continue  # a nested parameter dataclass: its own fields declare theirs
         assert "rule" in f.metadata, f"{cls.__name__}.{f.name} declares no allowed values"
-    P.check_params(cls(), cls.__name__)
+    R.check_params(cls(), cls.__name__)
 
 
 def run_file(tmp_path: Path, key: str, value: str) -> Path:
@@ -42,7 +43,7 @@ def run_file(tmp_path: Path, key: str, value: str) -> Path:
 ])
 def test_a_value_allowed_anywhere_is_allowed_everywhere(tmp_path, key, text, value):
     assert getattr(load_run_config(run_file(tmp_path, key, text)).learner_params, key) == value
-    assert P.field_option(P.LearnerParams, key)(text) == value
+    assert R.field_option(P.LearnerParams, key)(text) == value
     ThermalLearner(P.LearnerParams(**{key: value}), np.random.default_rng(0))
 
 
@@ -58,7 +59,7 @@ def test_a_value_refused_anywhere_is_refused_everywhere_with_one_message(tmp_pat
         load_run_config(path)
     assert str(in_file.value) == f"{path}: learner.{key}: expected {expected}, got {value!r}"
     with pytest.raises(argparse.ArgumentTypeError) as on_the_command_line:
-        P.field_option(P.LearnerParams, key)(text)
+        R.field_option(P.LearnerParams, key)(text)
     assert str(on_the_command_line.value) == f"expected {expected}, got {text!r}"
     with pytest.raises(ConfigError) as in_the_api:
         ThermalLearner(P.LearnerParams(**{key: value}), np.random.default_rng(0))
@@ -71,16 +72,16 @@ def test_choices_and_nested_tables_use_the_same_rules():
     with pytest.raises(ConfigError, match=r"^s: sensor\.optical\.patch_size: expected an integer in \[16, 256\]"):
         params_from_table(P.SensorParams, {"optical": {"patch_size": 8}}, "s", "sensor")
     with pytest.raises(ConfigError, match=r"^E: friction_field\.amplitude: expected a number in \[0, 1\), got 1\.0$"):
-        P.check_params(P.EnvironmentParams(friction_field=P.FrictionFieldParams(amplitude=1.0)), "E")
+        R.check_params(P.EnvironmentParams(friction_field=P.FrictionFieldParams(amplitude=1.0)), "E")
 
 
 @pytest.mark.parametrize("rule, text", [
-    (P.Range(0, low_inclusive=False), "a finite number > 0"),
-    (P.Range(0, 1, low_inclusive=False), "a number in (0, 1)"),
-    (P.Range(0, math.inf, high_inclusive=True), "a number >= 0 or inf"),
-    (P.Range(1, integer=True), "an integer >= 1"),
-    (P.Range(16, 64, high_inclusive=True, integer=True, even=True), "an even integer in [16, 64]"),
-    (P.Range(low_inclusive=False), "a finite number"),
+    (R.Range(0, low_inclusive=False), "a finite number > 0"),
+    (R.Range(0, 1, low_inclusive=False), "a number in (0, 1)"),
+    (R.Range(0, math.inf, high_inclusive=True), "a number >= 0 or inf"),
+    (R.Range(1, integer=True), "an integer >= 1"),
+    (R.Range(16, 64, high_inclusive=True, integer=True, even=True), "an even integer in [16, 64]"),
+    (R.Range(low_inclusive=False), "a finite number"),
 ])
 def test_range_descriptions(rule, text):
     assert rule.describe() == text
@@ -88,5 +89,31 @@ def test_range_descriptions(rule, text):
 
 def test_integers_and_infinities():
     assert not P.COUNT.accepts(2.0) and not P.COUNT.accepts(True) and P.COUNT.accepts(np.int64(3))
-    assert not P.Range(low_inclusive=False).accepts(-math.inf) and not P.Range(0).accepts(math.inf)
-    assert type(P.check(P.LearnerParams, "temperature", 1, "s")) is float  # files' integers become floats
+    assert not R.Range(low_inclusive=False).accepts(-math.inf) and not R.Range(0).accepts(math.inf)
+    assert type(R.check(P.LearnerParams, "temperature", 1, "s")) is float  # files' integers become floats
+
+
+def test_the_moved_configuration_names_are_still_importable_from_their_old_modules():
+    """The rule engine left params.py for rules.py, the table readers shapes/loader.py for readers.py, and the suite's
+    model, expansion, aliases and cost model bench/suite.py for modules of their own: the old import paths still give
+    the very same objects."""
+    import morphbench.bench.aliases as aliases
+    import morphbench.bench.cost as cost
+    import morphbench.bench.expand as expand
+    import morphbench.bench.model as model
+    import morphbench.bench.suite as suite
+    import morphbench.readers as readers
+    import morphbench.shapes as shapes
+    import morphbench.shapes.loader as loader
+    from morphbench.bench import Suite
+
+    for name in ("Range", "Choices", "OfType", "StepSpan", "between", "param", "rule_of", "expected", "check",
+                 "check_rule", "check_params", "check_plan_size", "option_type", "field_option"):
+        assert getattr(P, name) is getattr(R, name), name
+    for name in ("params_from_table", "params_from_dict", "field_default"):
+        assert getattr(loader, name) is getattr(readers, name), name
+    assert shapes.params_from_table is readers.params_from_table and shapes.params_from_dict is readers.params_from_dict
+    for name in ("RunSpec", "ScanSpec", "ScanPart", "Job", "Experiment", "Suite", "SCAN_PART_POINTS"):
+        assert getattr(suite, name) is getattr(model, name), name
+    assert Suite is model.Suite and suite.body_cost is cost.body_cost and suite.rename is aliases.rename
+    assert suite.events_summary is expand.events_summary and suite.AXIS_ORDER is expand.AXIS_ORDER

@@ -17,8 +17,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from morphbench.errors import ConfigError
-from morphbench.params import ActuatorParams, DummyParams, UnitParams, rule_of
-from morphbench.shapes import Shape, load_shape, params_from_table, shape_from_table
+from morphbench.params import ActuatorParams, DummyParams, UnitParams
+from morphbench.readers import params_from_table
+from morphbench.rules import rule_of
+from morphbench.shapes import Shape, load_shape, shape_from_table
 from morphbench.shapes.loader import MAX_UNITS
 
 from conftest import SHAPES_DIR, assert_config_error, write

@@ -1,6 +1,10 @@
 """Benchmark suites: matrices of learning runs and landscape scans, run in parallel, stored as Parquet, reported.
 
-    suite.py      the suite file format (TOML) and its expansion into runs and scan parts with stable ids
+    suite.py      the suite file format (TOML) and its reader
+    model.py      a suite once read: its runs, scans (in parts), experiments and jobs
+    expand.py     an experiment's matrix and each scan expanded into runs and scan parts with stable ids
+    aliases.py    the first suites' keys, still read (translated into run-configuration keys)
+    cost.py       the cost estimate of a job (for the progress bar and longest-first scheduling)
     identity.py   the stable ids of shapes, environments and runs (pure: no simulator)
     jobs.py       what a worker does with one job (never raises: a failure is a result)
     executors.py  a local process pool (default) or a Dask distributed cluster
@@ -29,5 +33,5 @@ export_lazily(__name__, {
     "build_report": "report",
     "Outcome": "runner", "run_suite": "runner",
     "Store": "store",
-    "Suite": "suite", "load_suite": "suite",
+    "Suite": "model", "load_suite": "suite",
 })

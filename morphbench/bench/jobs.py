@@ -82,7 +82,7 @@ def _finished(records) -> dict[str, Any]:
 
 
 def _scan(part) -> dict[str, Any]:
-    """A ``suite.ScanPart``: Ubar at each of its points."""
+    """A ``model.ScanPart``: Ubar at each of its points."""
     ubar = [ScanPoint(part.shape, p, part.physics, part.cycles, part.discard, part.environment, part.damage).ubar()
             for p in part.phases]
     columns = [f"dphi_{i}" for i in range(2, part.shape.n_units + 1)]

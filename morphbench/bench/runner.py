@@ -20,7 +20,7 @@ from morphbench.bench.executors import LocalExecutor
 from morphbench.bench.jobs import execute
 from morphbench.bench.provenance import record_session
 from morphbench.bench.store import Store
-from morphbench.bench.suite import Job, Suite
+from morphbench.bench.model import Job, Suite
 from morphbench.experiment.batch import batchable
 from morphbench.experiment.run import RunConfig
 from morphbench.errors import ConfigError

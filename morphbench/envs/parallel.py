@@ -42,7 +42,8 @@ from morphbench.experiment.records import RunRecords
 from morphbench.experiment.run import RunConfig, RunLoop, run_world
 from morphbench.learning.base import wrap_phase
 from morphbench.learning.plugins import Decentralized, as_phase, learner_spec, unit_rng
-from morphbench.params import COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, PhysicsParams, check_rule
+from morphbench.params import COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, PhysicsParams
+from morphbench.rules import check_rule
 from morphbench.shapes.loader import resolve_shape_path
 
 SOURCE = "morphbench.envs"

@@ -53,9 +53,10 @@ from morphbench.params import (
     PhysicsParams,
     SensorParams,
     TEXT,
-    check_rule,
 )
-from morphbench.shapes import Shape, load_shape, params_from_table, read_toml, shape_from_table
+from morphbench.readers import params_from_table
+from morphbench.rules import check_rule
+from morphbench.shapes import Shape, load_shape, read_toml, shape_from_table
 
 RUN_KEYS = {"description", "shape", "steps", "seed", "learner", "sensor", "environment", "physics", "events"}
 

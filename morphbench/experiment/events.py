@@ -27,7 +27,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from morphbench.errors import ConfigError, PhysicsError, require_integer
-from morphbench.params import DAMAGE_MODES, SEED, EnvironmentParams, check, check_rule
+from morphbench.params import DAMAGE_MODES, SEED, EnvironmentParams
+from morphbench.rules import check, check_rule
 from morphbench.shapes.transforms import shuffle_order
 
 if TYPE_CHECKING:  # configs and suites parse events without loading the simulator

@@ -36,9 +36,10 @@ from morphbench.params import (
 from morphbench.physics import World, make_world
 from morphbench.physics.bellows import link_spans
 from morphbench.physics.camera import CameraGround
+from morphbench.readers import params_from_dict
 from morphbench.sensing import GroundTexture, IdealSensor, OpticalSensor, Sensor
 from morphbench.sensing.base import forward_axes, tilts
-from morphbench.shapes import Shape, load_shape, params_from_dict
+from morphbench.shapes import Shape, load_shape
 from morphbench.streams import NOISE_STREAM, OPTICAL_STREAM
 
 

@@ -22,15 +22,9 @@ import pandas as pd
 
 from morphbench.experiment.events import DamageEvent, RunState
 from morphbench.experiment.run import measure
-from morphbench.params import (
-    DEFAULT_PHYSICS,
-    MAX_SCAN_POINTS,
-    SCAN_POINT_BYTES,
-    EnvironmentParams,
-    PhysicsParams,
-    check_plan_size,
-)
+from morphbench.params import DEFAULT_PHYSICS, MAX_SCAN_POINTS, SCAN_POINT_BYTES, EnvironmentParams, PhysicsParams
 from morphbench.physics import make_world
+from morphbench.rules import check_plan_size
 from morphbench.sensing import IdealSensor
 from morphbench.shapes import Shape
 from morphbench.streams import SCAN_STREAM

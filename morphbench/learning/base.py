@@ -12,7 +12,8 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from morphbench.params import LearnerParams, check_params
+from morphbench.params import LearnerParams
+from morphbench.rules import check_params
 
 
 def wrap_phase(phase: float) -> float:

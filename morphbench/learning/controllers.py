@@ -22,7 +22,8 @@ from abc import abstractmethod
 import numpy as np
 
 from morphbench.learning.base import Controller, wrap_phases
-from morphbench.params import LearnerParams, check_params
+from morphbench.params import LearnerParams
+from morphbench.rules import check_params
 from morphbench.streams import CONTROLLER_STREAM
 
 CMA_SIGMA0 = 0.1

@@ -7,7 +7,8 @@ import os
 from pathlib import Path
 
 from morphbench.errors import ConfigError
-from morphbench.params import VideoParams, check
+from morphbench.params import VideoParams
+from morphbench.rules import check
 
 FORMATS = (".mp4", ".gif")
 GIF_MAX_FPS = 50.0

@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 
 from morphbench.errors import ConfigError
-from morphbench.params import VideoParams, field_option
+from morphbench.params import VideoParams
 from morphbench.render.checks import check_video_params
+from morphbench.rules import field_option
 
 
 def add_render_arguments(parser: argparse.ArgumentParser, output: bool = True) -> None:

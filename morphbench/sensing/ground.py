@@ -22,7 +22,8 @@ import numpy as np
 
 from morphbench.errors import ConfigError
 from morphbench.files import is_file
-from morphbench.params import GroundParams, check_params
+from morphbench.params import GroundParams
+from morphbench.rules import check_params
 
 MAX_TEXTURE_PIXELS = 64_000_000
 """Largest tile, in pixels (256 MB as float32): a larger one is almost certainly a mistake of units."""

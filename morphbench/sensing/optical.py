@@ -34,7 +34,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from morphbench.params import OpticalParams, check_params
+from morphbench.params import OpticalParams
+from morphbench.rules import check_params
 from morphbench.sensing.base import Sensor
 from morphbench.sensing.ground import GroundTexture
 

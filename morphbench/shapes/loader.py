@@ -105,13 +105,16 @@ from typing import Any
 
 from morphbench.errors import ConfigError
 from morphbench.files import is_dir, is_file, read_toml
-from morphbench.params import SEED, ActuatorParams, DummyParams, UnitParams, check, check_rule, expected
+from morphbench.params import SEED, ActuatorParams, DummyParams, UnitParams
+from morphbench.readers import check_keys, field_default, params_from_dict, params_from_table
+from morphbench.rules import check, check_rule, expected
 from morphbench.shapes.checks import check_shape
 from morphbench.shapes.export import PRIMITIVES, check_mesh
 from morphbench.shapes.generators import MAX_BODIES, MAX_SITE, MAX_UNITS, CustomLink, CustomUnit, chain, custom, lattice
 from morphbench.shapes.model import Shape
 from morphbench.shapes.transforms import PLANES, cut_apart, rotate, shuffle
 
+# params_from_table, params_from_dict and field_default moved to morphbench.readers; still importable from here
 __all__ = ["GENERATORS", "MAX_UNITS", "MAX_BODIES", "chain", "load_shape", "read_toml", "shape_from_table",
            "params_from_table", "params_from_dict", "field_default"]
 
@@ -136,7 +139,7 @@ def load_shape(path: str | Path) -> Shape:
 def shape_from_table(table: dict[str, Any], *, source: str, default_name: str = "shape") -> Shape:
     """Build a ``Shape`` from an already-parsed TOML table (``source`` names it in messages; relative mesh paths
     start at its directory)."""
-    _check_keys(table, TOP_KEYS, source, prefix="")
+    check_keys(table, TOP_KEYS, source, prefix="")
     name = _string(table, "name", source, default_name)
     description = _string(table, "description", source, "")
     heading = _heading(table.get("heading", [1.0, 0.0, 0.0]), source)
@@ -150,7 +153,7 @@ def shape_from_table(table: dict[str, Any], *, source: str, default_name: str = 
     generator = assembly.get("generator")
     if generator not in GENERATORS:
         raise ConfigError(source, "assembly.generator", f"one of {', '.join(GENERATORS)}", generator)
-    _check_keys(assembly, ASSEMBLY_KEYS[generator], source, prefix="assembly.")
+    check_keys(assembly, ASSEMBLY_KEYS[generator], source, prefix="assembly.")
     meshes = {"unit_mesh": unit_mesh, "dummy_mesh": dummy_mesh}
     if generator == "custom":
         units, links = _custom_tables(table, source, base)
@@ -168,37 +171,6 @@ def shape_from_table(table: dict[str, Any], *, source: str, default_name: str = 
     if "transform" in table:
         shape = _transform(_table(table, "transform", source), shape, source)
     return shape
-
-
-def params_from_table(cls: type, table: Any, source: str, section: str):
-    """A frozen parameter dataclass from a TOML table, every key checked against the dataclass's fields; a field
-    that is itself a parameter dataclass is read from a sub-table."""
-    if not isinstance(table, dict):
-        raise ConfigError(source, section, f"a table of {cls.__name__} fields", table)
-    fields = {f.name: f for f in dataclasses.fields(cls)}
-    _check_keys(table, set(fields), source, prefix=f"{section}.")
-    values = {}
-    for key, value in table.items():
-        default = field_default(fields[key])
-        if dataclasses.is_dataclass(default):
-            values[key] = params_from_table(type(default), value, source, f"{section}.{key}")
-        else:
-            values[key] = check(cls, key, value, source, f"{section}.{key}")
-    return cls(**values)
-
-
-def params_from_dict(cls: type, data: dict[str, Any]):
-    """The inverse of ``dataclasses.asdict`` for parameter dataclasses (no validation: the data came from us)."""
-    fields = {f.name: f for f in dataclasses.fields(cls)}
-    values = {}
-    for key, value in data.items():
-        default = field_default(fields[key])
-        values[key] = params_from_dict(type(default), value) if dataclasses.is_dataclass(default) else value
-    return cls(**values)
-
-
-def field_default(f: dataclasses.Field) -> Any:
-    return f.default if f.default is not dataclasses.MISSING else f.default_factory()
 
 
 def _generate(generator: str, assembly: dict[str, Any], unit: UnitParams, dummy: DummyParams,
@@ -252,7 +224,7 @@ def _custom_tables(table: dict[str, Any], source: str, base: Path) -> tuple[list
     units = []
     for i, entry in enumerate(entries):
         where = f"units[{i}]"
-        _check_keys(entry, UNIT_ENTRY_KEYS, source, prefix=f"{where}.")
+        check_keys(entry, UNIT_ENTRY_KEYS, source, prefix=f"{where}.")
         at = entry.get("at")
         if not (isinstance(at, list) and len(at) in (2, 3)
                 and all(isinstance(v, int) and not isinstance(v, bool) and abs(v) <= MAX_SITE for v in at)):
@@ -274,7 +246,7 @@ def _custom_tables(table: dict[str, Any], source: str, base: Path) -> tuple[list
     links = []
     for i, item in enumerate(items):
         where = f"links[{i}]"
-        _check_keys(item, LINK_ENTRY_KEYS, source, prefix=f"{where}.")
+        check_keys(item, LINK_ENTRY_KEYS, source, prefix=f"{where}.")
         between = item.get("between")
         if not (isinstance(between, list) and len(between) == 2
                 and all(isinstance(v, int) and not isinstance(v, bool) for v in between)):
@@ -296,12 +268,12 @@ def _custom_tables(table: dict[str, Any], source: str, base: Path) -> tuple[list
 
 def _transform(transform: dict[str, Any], shape: Shape, source: str) -> Shape:
     """Apply a [transform] table: shuffle first, then cut, then rotate."""
-    _check_keys(transform, TRANSFORM_KEYS, source, prefix="transform.")
+    check_keys(transform, TRANSFORM_KEYS, source, prefix="transform.")
     if "shuffle" in transform:
         spec = transform["shuffle"]
         if not isinstance(spec, dict):
             raise ConfigError(source, "transform.shuffle", "a table {seed = N}", spec)
-        _check_keys(spec, {"seed"}, source, prefix="transform.shuffle.")
+        check_keys(spec, {"seed"}, source, prefix="transform.shuffle.")
         if "seed" not in spec:
             raise ConfigError(source, "transform.shuffle.seed", expected(SEED))
         shape = shuffle(shape, check_rule(SEED, "", spec["seed"], source, "transform.shuffle.seed"))
@@ -309,7 +281,7 @@ def _transform(transform: dict[str, Any], shape: Shape, source: str) -> Shape:
         spec = transform["cut"]
         if not isinstance(spec, dict):
             raise ConfigError(source, "transform.cut", '{link = N}, {link = [N, M]} or {plane = "x", at = X}', spec)
-        _check_keys(spec, {"link", "plane", "at"}, source, prefix="transform.cut.")
+        check_keys(spec, {"link", "plane", "at"}, source, prefix="transform.cut.")
         if ("link" in spec) == ("plane" in spec) or ("link" in spec and "at" in spec):
             raise ConfigError(source, "transform.cut", 'either link = N (or a list) or plane = "x" | "y" | "z" with at')
         n_links = len(shape.links)
@@ -346,7 +318,7 @@ def _body_params(cls: type, value: Any, source: str, section: str, base: Path):
     """A [unit] or [dummy] table: the parameter dataclass and the mesh."""
     if not isinstance(value, dict):
         raise ConfigError(source, section, f"a table of {cls.__name__} fields", value)
-    _check_keys(value, {f.name for f in dataclasses.fields(cls)} | {"mesh"}, source, prefix=f"{section}.")
+    check_keys(value, {f.name for f in dataclasses.fields(cls)} | {"mesh"}, source, prefix=f"{section}.")
     table = dict(value)
     mesh = _mesh(table.pop("mesh"), source, f"{section}.mesh", base) if "mesh" in table else ""
     return params_from_table(cls, table, source, section), mesh
@@ -369,12 +341,6 @@ def _heading(value: Any, source: str) -> tuple[float, float, float]:
     if not ok or norm < 1e-12:
         raise ConfigError(source, "heading", "three finite numbers [x, y, z], not all zero", value)
     return tuple(float(v) / norm for v in value)
-
-
-def _check_keys(table: dict[str, Any], allowed: set[str], source: str, prefix: str) -> None:
-    for key in table:
-        if key not in allowed:
-            raise ConfigError(source, f"{prefix}{key}", f"one of the known keys {', '.join(sorted(allowed))}")
 
 
 def _string(table: dict[str, Any], key: str, source: str, default: str) -> str:
