@@ -595,27 +595,26 @@ def _k0(tables: dict, row: pd.Series) -> float:
 
 def _log2_ratio(value: Callable[[dict, pd.Series], float], first: tuple[str, dict], second: tuple[str, dict]):
     """|log2| of ``value`` of one condition over another's: 0 when equal, 1 when a factor of 2 apart."""
-    def measure(tables: dict) -> Measured | str:
-        a, b = _one(tables, first[0], **first[1]), _one(tables, second[0], **second[1])
-        for found in (a, b):
-            if isinstance(found, str):
-                return found
-        x, y = value(tables, a[0]), value(tables, b[0])
-        result = abs(math.log2(x / y)) if x > 0 and y > 0 else math.nan
-        on = f"{a[1]} ({x:.3g}) against {b[1]} ({y:.3g})"
-        return Measured(result, on) if math.isfinite(result) else f"not defined on {on}"
-    return measure
+    return _pair(value, first, second,
+                 lambda x, y: abs(math.log2(x / y)) if x > 0 and y > 0 else math.nan, "against")
 
 
 def _between(value: Callable[[dict, pd.Series], float], first: tuple[str, dict], second: tuple[str, dict]):
     """``value`` of a condition of one experiment minus that of a condition of another."""
+    return _pair(value, first, second, lambda x, y: x - y, "minus")
+
+
+def _pair(value: Callable[[dict, pd.Series], float], first: tuple[str, dict], second: tuple[str, dict],
+          combine: Callable[[float, float], float], word: str):
+    """A measure of two conditions (an experiment and its settings each): ``combine`` of their ``value``s."""
     def measure(tables: dict) -> Measured | str:
         a, b = _one(tables, first[0], **first[1]), _one(tables, second[0], **second[1])
         for found in (a, b):
             if isinstance(found, str):
                 return found
         x, y = value(tables, a[0]), value(tables, b[0])
-        return Measured(x - y, f"{a[1]} ({x:.3g}) minus {b[1]} ({y:.3g})")
+        result, on = combine(x, y), f"{a[1]} ({x:.3g}) {word} {b[1]} ({y:.3g})"
+        return Measured(result, on) if math.isfinite(result) else f"not defined on {on}"
     return measure
 
 
