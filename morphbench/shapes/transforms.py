@@ -77,6 +77,7 @@ def crossing_links(shape: Shape, plane: str, at: float) -> list[int]:
     on_plane = np.flatnonzero(np.abs(side) < 1e-9)
     if on_plane.size:
         raise ValueError(f"the plane {plane} = {at:g} passes through the centre of body {int(on_plane[0])}")
+    side = np.sign(side)  # the sides alone: a product of two distances of 1e300 m overflows
     return [i for i, link in enumerate(shape.links) if side[link.front] * side[link.rear] < 0]
 
 
