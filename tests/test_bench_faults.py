@@ -341,6 +341,9 @@ def test_a_second_bench_on_a_directory_is_refused_with_the_process_that_holds_it
         assert sorted(p.relative_to(out) for p in out.rglob("*")) == before  # it wrote nothing
         (gate / "open").touch()
         assert first.wait(PATIENCE_S) == 0
+        check = subprocess.run([sys.executable, "-m", "morphbench.cli", "check", str(out)], capture_output=True,
+                               text=True, timeout=PATIENCE_S, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        assert check.returncode == 0, check.stdout + check.stderr  # both ended: the directory is consistent
     finally:
         first.kill()
         first.wait()
