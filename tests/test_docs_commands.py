@@ -16,11 +16,12 @@ from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from markdown_it import MarkdownIt
 from PIL import Image, ImageSequence
 
-from morphbench.cli import _parser
+from morphbench.cli import _parser, main
 from morphbench.errors import ConfigError
 from morphbench.shapes.loader import resolve_shape_path
 
@@ -256,3 +257,17 @@ def test_find_locates_a_picture_on_a_screen():
     assert _find(screen, picture)
     picture[20, 40] += 100  # one pixel off: another picture
     assert not _find(screen, picture)
+
+
+def test_the_documented_learner_runs(tmp_path, monkeypatch, capsys):
+    """The README's fourth thing to try: docs/learners.md's Greedy saved as my_learners.py, run as printed there."""
+    page = (ROOT / "docs" / "learners.md").read_text(encoding="utf-8")
+    (tmp_path / "my_learners.py").write_text(re.search(r"```python\n(.*?)```", page, re.S).group(1))
+    command = "morphbench run chain-3 --learner my_learners:Greedy"
+    assert f"PYTHONPATH=. {command}" in page and f"PYTHONPATH=. {command}" in (ROOT / "README.md").read_text()
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))  # PYTHONPATH=.
+    assert main([*shlex.split(command)[1:], "--steps", "3", "--quiet", "--out", "out"]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["config"]["learner"] == "my_learners:Greedy"
+    assert len(pd.read_parquet(tmp_path / "out" / "steps.parquet")) == 4  # step 0 and 3 learning steps
