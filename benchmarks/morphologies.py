@@ -151,7 +151,8 @@ def suite_section(workers: int, out: Path) -> list[str]:
     table = M.condition_metrics(steps, runs)
     backends = {}
     lines = ["### Learning across the library", "",
-             f"`morphbench bench benchmarks/morphologies.toml --workers {workers}` ({len(runs)} runs, "
+             "`morphbench bench benchmarks/morphologies.toml --out results/morphologies --workers "
+             f"{workers}` ({len(runs)} runs, "
              f"{outcome.wall_time_s:.0f} s here; its report.md has the curves): {suite.experiments[0].description} "
              "Final Ubar: true velocity (mm/cycle) over the last 10% of steps, mean +- std over seeds; along "
              "heading: the centroid's velocity along the assembly's heading; turning: degrees per cycle. "

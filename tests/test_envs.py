@@ -188,13 +188,13 @@ def test_bad_construction_and_actions_are_refused():
     assert env.phases() == pytest.approx([0.25, 0.2, 0.9])
 
 
-def test_the_readme_example_runs():
-    """The README's own multi-agent learner, trained through the parallel environment, as printed there."""
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    section = readme[readme.index("## Multi-agent and centralized interfaces"):]
+def test_the_documented_example_runs():
+    """docs/api.md's own multi-agent learner, trained through the parallel environment, as printed there."""
+    page = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
+    section = page[page.index("## Multi-agent and centralized interfaces"):]
     code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
     namespace = {}
-    exec(compile(code, "README.md", "exec"), namespace)
+    exec(compile(code, "docs/api.md", "exec"), namespace)
     records = namespace["env"].records
     assert records.n_steps == namespace["env"].config.steps + 1
     assert records.steps().ubar.iloc[-5:].mean() > records.steps().ubar.iloc[:5].mean()
