@@ -585,8 +585,8 @@ def _split(table: pa.Table, name: str, path: Path, front: set[str] | None) -> di
     if unknown:
         raise _Bad(path, f"the columns of {path.name} (the plan's in front of {', '.join(schema)}), got "
                          f"{_short(unknown)}")
-    ids = table.column("run_id").to_numpy(zero_copy_only=False)
-    codes, runs = pd.factorize(ids)
+    encoded = table.column("run_id").combine_chunks().dictionary_encode()  # codes in order of first appearance
+    codes, runs = encoded.indices.to_numpy(), encoded.dictionary.to_pylist()
     if (np.diff(codes) < 0).any():  # a run's rows apart (an edited table): gathered, in their order
         table, codes = table.take(np.argsort(codes, kind="stable")), np.sort(codes, kind="stable")
     table = table.select(own)
