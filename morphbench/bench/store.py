@@ -350,10 +350,11 @@ class Store:
         }
         if write:
             kept = {key["run_id"] for key in unit_keys}
-            for run_id in self._absorbed_runs() - kept:  # rows the new tables drop: back into their directories
-                self.restore(run_id)
+            held = {name: self._absorbed_ids(name) for name in ABSORBED}
+            for run_id in set().union(*filter(None, held.values())) - kept:  # rows the new tables drop: back into
+                self.restore(run_id)                                          # their directories
             unreadable = [self.root / f"{name}.parquet" for name in ABSORBED
-                          if isinstance(self._split_table(name), _Bad)]
+                          if held[name] is None or isinstance(self._absorbed.get(name), _Bad)]
             self.set_aside([path for path in unreadable if os.path.lexists(path)])  # kept, never written over
             for name, table in tables.items():
                 self.write_table(name, table)
@@ -439,13 +440,19 @@ class Store:
             return None
         return set(_step_columns(plan)) - set(STEP_COLUMNS) if name == "steps" else {"run_id"}
 
-    def _absorbed_runs(self) -> set[str]:
-        """The runs with rows in a readable consolidated steps or units table."""
-        runs: set[str] = set()
-        for name in ABSORBED:
-            rows = self._split_table(name)
-            runs.update(() if isinstance(rows, _Bad) else rows)
-        return runs
+    def _absorbed_ids(self, name: str) -> set[str] | None:
+        """The runs with rows in the consolidated table ``name`` (only its run_id column read, unless it was read
+        whole already); None if it is there but unreadable."""
+        rows = self._absorbed.get(name)
+        if rows is not None:
+            return None if isinstance(rows, _Bad) else set(rows)
+        path = self.root / f"{name}.parquet"
+        if not os.path.lexists(path):
+            return set()
+        try:
+            return set(pq.read_table(path, columns=["run_id"]).column("run_id").unique().to_pylist())
+        except (OSError, ValueError, KeyError, pa.ArrowException):
+            return None
 
     def restore(self, run_id: str) -> None:
         """Write run ``run_id``'s rows of the consolidated tables back into its directory, where it has none: what
