@@ -40,7 +40,8 @@ tables (a job consolidated), never needed from both: where its directory has the
 tables are written, consolidating removes the runs' own copies; it first writes back into its directory the rows of a
 run the plan no longer lists (a suite resumed into the directory of another), so that nothing of a finished job is
 lost. A results directory of an older morphbench (each run's tables in its directory and in the consolidated
-tables) is read as it is, and the next consolidation (``bench`` or ``report``) removes the copies.
+tables) is read as it is, and the next consolidation (``bench`` or ``report``) removes the copies. A consolidated
+steps or units table that cannot be read is set aside into DIR/damaged/, never written over (its runs are damaged).
 ``wall_time_s`` is the only column that changes from one execution to the next.
 """
 
