@@ -165,6 +165,18 @@ def test_a_directory_of_another_suite_is_refused_unless_resume(reference, tmp_pa
     assert sorted(outcome.tables["runs"].seed.unique()) == [0, 1, 2]
 
 
+def test_a_consolidated_run_replays_from_its_result_and_its_rows(reference):
+    from morphbench.render.replay import load_run
+
+    _, out, outcome = reference
+    run_id = outcome.tables["runs"].run_id.iloc[0]
+    with Store(out).replayable(run_id) as directory:
+        config, steps = load_run(directory)
+    expected = outcome.tables["steps"].query("run_id == @run_id")[steps.columns].reset_index(drop=True)
+    pd.testing.assert_frame_equal(steps, expected, check_exact=True)
+    assert config.seed == outcome.tables["runs"].seed.iloc[0] and not directory.exists()  # the temporary one: gone
+
+
 def test_resuming_a_smaller_suite_keeps_the_rows_of_the_runs_it_leaves_out(reference, tmp_path):
     suite_path, out, outcome = reference
     copy = tmp_path / "copy"
