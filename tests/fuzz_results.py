@@ -3,9 +3,11 @@
 
 ``DAMAGES`` lists each kind of damage: a function that damages a copy of a finished results directory (``reference``:
 a tiny suite on the quasi-static model, its report built), the path ``check`` must name, and what ``report`` does
-with it: ``skip`` (exit 0, the job listed under 'Damaged jobs'), ``refuse`` (exit 2, one line, nothing written),
-``rebuild`` (exit 0: a consolidated table the report rebuilds from the jobs) or, for ``compare`` kinds, what
-``report --compare`` refuses (the damage is in the directory compared). tests/test_check.py runs each kind once;
+with it: ``skip`` (exit 0, the job listed under 'Damaged jobs'; ``skip-last``: the plan's last run, whose rows of a
+consolidated table were edited; ``skip-all``: every run, a consolidated steps or units table unreadable), ``refuse``
+(exit 2, one line, nothing written), ``rebuild`` (exit 0: a consolidated table the report rebuilds from the jobs) or,
+for ``compare`` kinds, what ``report --compare`` refuses (the damage is in the directory compared).
+tests/test_check.py runs each kind once;
 ``random_cases(n, seed)`` draws cases of random kinds, jobs, offsets and commands for benchmarks/robustness.py.
 
 ``run_case`` (tests/fuzzing.py) judges a case; ``verdict(outcome)`` refines its verdict for ``check``, whose exit
@@ -27,6 +29,7 @@ from typing import Callable
 import pandas as pd
 
 from fuzzing import Case, Outcome
+from morphbench.bench.store import Store
 
 ROOT = Path(__file__).resolve().parents[1]
 SUITE = textwrap.dedent(f"""
@@ -176,20 +179,26 @@ def _table_edit(edit):
 @dataclass(frozen=True)
 class Kind:
     """One kind of damage: ``apply(path, rng)`` to the file ``where`` names (a job's file: '<run>/steps.parquet',
-    '<scan>/points.parquet'; else relative to the directory), and what report does with it (see the module doc)."""
+    '<scan>/points.parquet'; else relative to the directory), and what report does with it (see the module doc). A
+    run's table is damaged in its directory, where a bench killed before consolidating leaves it (the reference's
+    runs are consolidated: their rows are written back first, ``Store.restore``)."""
 
     name: str
     where: str
     apply: Callable[[Path, random.Random | None], str]
     report: str
-    """'skip', 'refuse', 'rebuild' or 'compare' (report --compare refuses; check finds it in metrics or runs)."""
+    """'skip', 'skip-last', 'skip-all', 'refuse', 'rebuild' or 'compare' (report --compare refuses; check finds it
+    in metrics or runs)."""
     check: bool = True
     """whether check finds it (a missing runs.parquet is no damage: the tables are rebuilt)."""
 
     def path(self, root: Path, rng: random.Random | None = None) -> Path:
         for marker, kind in (("<run>", "run"), ("<scan>", "scan")):
             if self.where.startswith(marker):
-                return root / (_job(root, kind, rng) + self.where[len(marker):])
+                job = _job(root, kind, rng)
+                if kind == "run" and self.where.endswith(".parquet"):
+                    Store(root).restore(Path(job).name)
+                return root / (job + self.where[len(marker):])
         return root / self.where
 
     def damage(self, root: Path, rng: random.Random | None = None) -> tuple[Path, str]:
@@ -200,7 +209,6 @@ class Kind:
 
 DAMAGES = [
     # a job's tables
-    Kind("steps missing", "<run>/steps.parquet", _remove, "skip"),
     Kind("steps empty", "<run>/steps.parquet", _bytes(b""), "skip"),
     Kind("steps truncated", "<run>/steps.parquet", _cut, "skip"),
     Kind("steps byte-flipped", "<run>/steps.parquet", _flip, "skip"),
@@ -264,7 +272,19 @@ DAMAGES = [
     Kind("runs table truncated", "runs.parquet", _cut, "rebuild"),
     Kind("jobs table byte-flipped", "jobs.parquet", _flip, "rebuild"),
     Kind("runs table with inf", "runs.parquet", _table_edit(_set_last("final_ubar_true", math.inf)), "rebuild"),
-    Kind("steps table a row short", "steps.parquet", _table_edit(lambda t: t.iloc[:-1]), "rebuild"),
+    # the consolidated runs' rows: their runs are damaged (the rows are their only copy)
+    Kind("steps table without the last run", "steps.parquet",
+         _table_edit(lambda t: t[t.run_id != t.run_id.iloc[-1]]), "skip-last"),
+    Kind("steps table a row short", "steps.parquet", _table_edit(lambda t: t.iloc[:-1]), "skip-last"),
+    Kind("units table with inf", "units.parquet", _table_edit(_set_last("u_true", math.inf)), "skip-last"),
+    Kind("steps table with NaN step time", "steps.parquet", _table_edit(_set_last("time_s", math.nan)), "skip-last"),
+    Kind("steps table truncated", "steps.parquet", _cut, "skip-all"),
+    Kind("units table byte-flipped", "units.parquet", _flip, "skip-all"),
+    Kind("units table a directory", "units.parquet", _directory, "skip-all"),
+    Kind("steps table with an unknown column", "steps.parquet", _table_edit(lambda t: t.assign(extra=1.0)),
+         "skip-all"),
+    Kind("units table without u_true", "units.parquet", _table_edit(lambda t: t.drop(columns=["u_true"])),
+         "skip-all"),
     Kind("jobs table stale status", "jobs.parquet", _table_edit(_set_last("status", "finished")), "rebuild"),
     # what report --compare reads
     Kind("metrics corrupt", "metrics.parquet", _cut, "compare"),

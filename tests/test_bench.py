@@ -20,6 +20,7 @@ import pytest
 from morphbench.bench.runner import batched
 from morphbench.bench import DaskExecutor, LocalExecutor, add_bench_commands, build_report, load_suite, run_suite
 from morphbench.bench import jobs as bench_jobs
+from morphbench.bench.store import Store
 from morphbench.bench.metrics import condition_metrics, curves, fit_exponential, recovery_steps, steps_to_reach
 from morphbench.errors import ConfigError
 
@@ -62,6 +63,24 @@ def test_straight_run_records_every_job(reference):
     on_disk = {name: pd.read_parquet(out / f"{name}.parquet") for name in TABLES}
     assert_same_tables(on_disk, outcome.tables)
     assert len(list((out / "runs").iterdir())) == N_TINY_RUNS
+    # each row once: a consolidated run's directory keeps its result.json, its rows are in steps and units.parquet
+    assert {path.name for path in (out / "runs").rglob("*") if path.is_file()} == {"result.json"}
+
+
+def test_an_old_directory_with_two_copies_is_read_as_it_is_and_consolidating_removes_the_copies(reference, tmp_path):
+    """A directory of an older morphbench (each run's tables in its directory and in the consolidated tables), or
+    one whose bench was killed between writing the new tables and removing the runs' copies."""
+    _, source, outcome = reference
+    out = tmp_path / "old"
+    shutil.copytree(source, out)
+    store = Store(out)
+    for run_id in outcome.tables["runs"].run_id:
+        store.restore(run_id)
+    assert len(list((out / "runs").glob("*/units.parquet"))) == N_TINY_RUNS
+    assert_same_tables(Store(out).consolidate(write=False), outcome.tables)
+    assert_same_tables(Store(out).consolidate(), outcome.tables)
+    assert not list((out / "runs").glob("*/*.parquet"))
+    assert_same_tables({name: pd.read_parquet(out / f"{name}.parquet") for name in TABLES}, outcome.tables)
 
 
 def test_one_worker_and_a_dask_cluster_give_the_same_tables(reference, tmp_path):
@@ -144,6 +163,34 @@ def test_a_directory_of_another_suite_is_refused_unless_resume(reference, tmp_pa
     outcome = run_suite(load_suite(grown), copy, LocalExecutor(2), progress=False, resume=True)
     assert (outcome.skipped, outcome.done) == (N_TINY_JOBS, 4)  # only the new seed's runs
     assert sorted(outcome.tables["runs"].seed.unique()) == [0, 1, 2]
+
+
+def test_a_consolidated_run_replays_from_its_result_and_its_rows(reference):
+    from morphbench.render.replay import load_run
+
+    _, out, outcome = reference
+    run_id = outcome.tables["runs"].run_id.iloc[0]
+    with Store(out).replayable(run_id) as directory:
+        config, steps = load_run(directory)
+    expected = outcome.tables["steps"].query("run_id == @run_id")[steps.columns].reset_index(drop=True)
+    pd.testing.assert_frame_equal(steps, expected, check_exact=True)
+    assert config.seed == outcome.tables["runs"].seed.iloc[0] and not directory.exists()  # the temporary one: gone
+
+
+def test_resuming_a_smaller_suite_keeps_the_rows_of_the_runs_it_leaves_out(reference, tmp_path):
+    suite_path, out, outcome = reference
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    fewer = write_suite(tmp_path, TINY.replace("seeds = 2", "seeds = 1"), "tiny.toml")
+    small = run_suite(load_suite(fewer), copy, LocalExecutor(1), progress=False, resume=True)
+    left_out = set(outcome.tables["runs"].run_id) - set(small.tables["runs"].run_id)
+    assert small.done == 0 and len(left_out) == N_TINY_RUNS // 2
+    assert not pd.read_parquet(copy / "units.parquet").run_id.isin(left_out).any()  # their rows: in their directories
+    assert {path.parent.name for path in (copy / "runs").glob("*/units.parquet")} == left_out
+    again = run_suite(load_suite(suite_path), copy, LocalExecutor(1), progress=False, resume=True)
+    assert (again.done, again.skipped) == (0, N_TINY_JOBS)
+    assert_same_tables(again.tables, outcome.tables)
+    assert not list((copy / "runs").glob("*/*.parquet"))
 
 
 # --- failures ----------------------------------------------------------------------------------------------------

@@ -57,6 +57,7 @@ def test_each_kind_of_damage_is_found_reported_and_repaired(kind, finished, tmp_
     suite, source, expected = finished
     root = tmp_path / "R"
     shutil.copytree(source, root)
+    plan = json.loads((root / "plan.json").read_text())
     path, _ = kind.damage(root)
     relative = str(path.relative_to(root))
 
@@ -84,16 +85,23 @@ def test_each_kind_of_damage_is_found_reported_and_repaired(kind, finished, tmp_
         code, out, err = run_cli(capsys, "report", str(root), "--no-videos")
         assert code == 0, err
         jobs = pd.read_parquet(root / "jobs.parquet")
-        if kind.report == "skip":
-            job_id = Path(relative).parts[1]
+        if kind.report.startswith("skip"):
+            job_ids = ([run["id"] for run in plan["runs"]] if kind.report == "skip-all" else
+                       [plan["runs"][-1]["id"]] if kind.report == "skip-last" else [Path(relative).parts[1]])
             assert "damaged jobs left out of the tables and the report" in one_line(err)
-            assert jobs.set_index("job_id").status[job_id] == DAMAGED
-            assert f"{job_id} | {relative}: expected " in (root / "report.md").read_text()
-            if relative.startswith("runs/"):  # never counted as finished
-                runs = pd.read_parquet(root / "runs.parquet").set_index("run_id")
+            report = (root / "report.md").read_text()
+            for job_id in job_ids:
+                assert jobs.set_index("job_id").status[job_id] == DAMAGED
+                # a run's rows the new tables leave out are written back into its directory: named there
+                wheres = (relative, f"runs/{job_id}/{relative}")
+                assert any(f"{job_id} | {where}: expected " in report for where in wheres)
+            if kind.report != "skip-all" and (relative.startswith("runs/") or kind.report == "skip-last"):
+                runs = pd.read_parquet(root / "runs.parquet").set_index("run_id")  # never counted as finished
                 metrics = pd.read_parquet(root / "metrics.parquet").set_index("condition_id")
-                row = metrics.loc[runs.condition_id[job_id]]
-                assert (runs.status[job_id], row.runs - row.failed - row.missing) == (DAMAGED, 1)
+                row = metrics.loc[runs.condition_id[job_ids[0]]]
+                assert (runs.status[job_ids[0]], row.runs - row.failed - row.missing) == (DAMAGED, 1)
+            for name in ("steps", "units"):  # their rows are left out of the tables
+                assert not pd.read_parquet(root / f"{name}.parquet").run_id.isin(job_ids).any()
         else:  # a consolidated table: rebuilt from the jobs
             assert err == "" and (jobs.status == "done").all()
             assert_same_tables(Store(root).consolidate(write=False), expected)
@@ -102,7 +110,11 @@ def test_each_kind_of_damage_is_found_reported_and_repaired(kind, finished, tmp_
     code, out, _ = run_cli(capsys, "check", str(root), "--repair")
     assert code == 1 and "moved " in out
     aside = "/".join(Path(relative).parts[:2]) if kind.where.startswith("<") else relative  # a job: its directory
-    assert len(list((root / "damaged").glob(f"*/{aside}"))) == 1  # kept, not deleted
+    if kind.report == "skip-last":  # the report wrote the run's rows back into its directory: the run goes aside
+        aside = f"runs/{plan['runs'][-1]['id']}"
+    kept = [aside] if kind.report != "skip-all" or any((root / "damaged").glob(f"*/{aside}")) else \
+        [f"runs/{run['id']}" for run in plan["runs"]]  # a table the runs' rows went back from: the runs
+    assert all(len(list((root / "damaged").glob(f"*/{path}"))) == 1 for path in kept)  # kept, not deleted
     plan_moved = kind.where == "plan.json"
     outcome = run_suite(load_suite(suite), root, Inline(), resume=plan_moved, progress=False)
     assert_same_tables(outcome.tables, expected)

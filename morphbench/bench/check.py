@@ -5,20 +5,23 @@ What is checked, each finding a ``store.Damage`` (the file, and what was expecte
 - ``plan.json``: the JSON plan ``bench`` writes, every experiment, scan and job named by a plain name, never a path
   (``store.check_plan``); ``runs/`` and ``scans/``: directories;
 - every job of the plan that has a directory (``Store.load``): result.json (an object of the keys ``bench`` writes,
-  status 'done' or 'failed', numbers finite), each Parquet table (readable; the columns and types of
-  experiment/records.py; no infinity, NaN only where the records have one) and its rows against the run's summary;
-  without a usable plan, every job directory under ``runs/`` and ``scans/``;
-- the consolidated tables: readable, and, when no job is damaged, equal to what the job directories give now
-  (``runs``, ``steps``, ``units``, ``scans``, ``jobs``, and ``curves`` and ``metrics`` once a report was built; columns
-  in any order); ``backends.parquet`` readable with the columns a report shows (morphbench.bench.backends).
+  status 'done' or 'failed', numbers finite), each of its tables, in its directory or (a run consolidated) its rows
+  of ``steps.parquet`` and ``units.parquet`` (readable; the columns and types of experiment/records.py; no infinity,
+  NaN only where the records have one) and a run's rows against its summary; without a usable plan, every job
+  directory under ``runs/`` and ``scans/``;
+- the consolidated tables: readable, and, when no job is damaged, the derived ones equal to what the jobs give now
+  (``runs``, ``scans``, ``jobs``, and ``curves`` and ``metrics`` once a report was built; columns in any order;
+  ``steps`` and ``units`` hold the consolidated runs' only copy, checked run by run above); ``backends.parquet``
+  readable with the columns a report shows (morphbench.bench.backends).
 
 Exit status: 0 clean, 1 damage found, 2 when DIR is not a results directory at all.
 
-``--repair`` moves every damaged job directory, and a damaged plan.json, ``runs/``, ``scans/`` or table, into
-``DIR/damaged/<UTC time>/`` under its own relative path (nothing is deleted but tables rebuilt from the jobs), and
-removes the consolidated tables that no longer describe the jobs. ``morphbench bench SUITE --out DIR`` then runs
-exactly the moved jobs again (with ``--resume`` when plan.json was moved aside: DIR then has none) and rebuilds the
-tables.
+``--repair`` moves every damaged job directory (a run's rows of the consolidated tables written into it first), and a
+damaged plan.json, ``runs/``, ``scans/`` or table, into ``DIR/damaged/<UTC time>/`` under its own relative path
+(nothing is deleted but tables rebuilt from the jobs), and removes the derived consolidated tables that no longer
+describe the jobs (never ``steps`` and ``units``: the next consolidation leaves the moved runs' rows out).
+``morphbench bench SUITE --out DIR`` then runs exactly the moved jobs again (with ``--resume`` when plan.json was
+moved aside: DIR then has none) and rebuilds the tables.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ import pandas as pd
 
 from morphbench.bench import backends as B
 from morphbench.bench import metrics as M
-from morphbench.bench.store import KIND_DIRS, PLAN, TABLES, Damage, Store
+from morphbench.bench.store import ABSORBED, KIND_DIRS, PLAN, TABLES, Damage, Store
 from morphbench.errors import ConfigError
 from morphbench.failures import describe
 from morphbench.files import is_dir
@@ -118,8 +121,9 @@ def _tables(store: Store, found: Findings) -> list[Damage]:
         if name == B.TABLE:
             reason = B.table_problem(stored)
             reason = reason and f"expected {reason}"
-        elif found.plan is None or found.damages:
-            continue  # compared with the jobs only when they and the plan are sound: else rebuilt after the repair
+        elif found.plan is None or found.damages or name in ABSORBED:
+            continue  # compared with the jobs only when they and the plan are sound: else rebuilt after the repair;
+            # steps and units are the consolidated runs' rows themselves, checked run by run
         else:
             if rebuilt is None:
                 rebuilt = store.consolidate(found.plan, write=False)
@@ -152,12 +156,15 @@ def move_aside(found: Findings) -> tuple[list[tuple[str, str]], list[str]]:
     root, store = found.root, Store(found.root)
     targets = [path for path in dict.fromkeys(store.job_dir(d.kind, d.job_id) if d.job_id else d.path
                                               for d in found.damages) if os.path.lexists(path)]  # not a missing plan
+    for damage in found.damages:
+        if damage.kind == "run" and damage.job_id:
+            store.restore(damage.job_id)  # its rows go aside with it, the next consolidation leaves them out
     moved = [(str(a.relative_to(root)), str(b.relative_to(root))) for a, b in zip(targets, store.set_aside(targets))]
     removed = []
     if any(not relative.endswith(".parquet") for relative, _ in moved):  # jobs, plan or a job folder went
         for name in (*TABLES, *REPORT_TABLES):
             path = root / f"{name}.parquet"
-            if path.is_file():
+            if path.is_file() and name not in ABSORBED:
                 path.unlink()  # rebuilt from the job directories by the next bench or report
                 removed.append(path.name)
     return moved, removed

@@ -4,16 +4,18 @@ Layout of ``DIR``::
 
     plan.json            the expanded suite: experiments, runs (id, condition, seed) and scans (what the tables need)
     suite.toml           a copy of the suite file, for the record
-    runs/<run_id>/       one finished run: steps.parquet, units.parquet (the RunRecords schema), result.json
+    runs/<run_id>/       one finished run: result.json; its steps.parquet and units.parquet (the RunRecords schema)
+                         until the tables are consolidated, which moves their rows into DIR/steps.parquet and
+                         DIR/units.parquet (ABSORBED: every row is stored once)
     scans/<part_id>/     one finished part of a scan: points.parquet (dphi_2.., ubar), result.json
     runs.parquet         one row per run of the suite: run_id, condition_id, experiments, condition columns, seed,
                          status ('done' | 'failed' | 'missing' | 'damaged'), error, final_ubar, final_ubar_true,
                          mean_acceptance, sensor_error, final_u_heading, turning_rate_deg_per_cycle,
                          centralized (1.0 for a centralized controller, 0.0 for per-unit learners; NaN, like every
                          summary value, for a run not done or stored before the value existed), wall_time_s
-    steps.parquet        every finished run's steps.parquet rows, with run_id, condition_id, condition columns, seed
-                         (a run stored before a column existed has NaN in it)
-    units.parquet        every finished run's units.parquet rows, with run_id
+    steps.parquet        every finished run's steps rows, with run_id, condition_id, condition columns, seed (a run
+                         stored before a column existed has NaN in it): the only copy of a consolidated run's steps
+    units.parquet        every finished run's units rows, with run_id: the only copy of a consolidated run's units
     scans.parquet        every scan point: scan_id, scan columns (scan, shape, resolution, ...), dphi_2.., ubar
     jobs.parquet         one row per job: job_id, kind, status, error, wall_time_s
     environment.json     one entry per bench that ran jobs here: when, how many, executor, machine, software versions
@@ -31,8 +33,15 @@ an infinite value, rows that disagree with its summary) is **damaged**: ``load``
 tables list it with status 'damaged' and leave its rows out, and ``morphbench check DIR --repair``
 (morphbench.bench.check) moves it aside to be run again. A plan.json that is not one ``bench`` writes, or that names
 an experiment, scan or job by anything but a plain name (a path would put figures outside DIR), is a ConfigError.
-The consolidated tables are rebuilt from the job directories and the plan, always in plan order, so they are the
-same whichever executor ran the jobs and in whatever order they finished.
+The consolidated tables are rebuilt from the job directories, the rows steps.parquet and units.parquet already hold
+and the plan, always in plan order, so they are the same whichever executor ran the jobs and in whatever order they
+finished. A run's rows are in its directory (a job just saved: a kill never leaves half of it) or in the consolidated
+tables (a job consolidated), never needed from both: where its directory has them, they are the run's. Once both new
+tables are written, consolidating removes the runs' own copies; it first writes back into its directory the rows of a
+run the plan no longer lists (a suite resumed into the directory of another), so that nothing of a finished job is
+lost. A results directory of an older morphbench (each run's tables in its directory and in the consolidated
+tables) is read as it is, and the next consolidation (``bench`` or ``report``) removes the copies. A consolidated
+steps or units table that cannot be read is set aside into DIR/damaged/, never written over (its runs are damaged).
 ``wall_time_s`` is the only column that changes from one execution to the next.
 """
 
@@ -43,10 +52,12 @@ import math
 import os
 import re
 import shutil
+import tempfile
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 import pandas as pd
@@ -69,6 +80,10 @@ DAMAGED."""
 DAMAGED = "damaged"
 DAMAGED_DIR = "damaged"
 """DIR/damaged/<time>/: damaged jobs and files set aside (``Store.set_aside``), never deleted."""
+ABSORBED = ("steps", "units")
+"""a run's tables whose rows consolidating moves into the consolidated table of the same name."""
+FRONT = b"morphbench_front"
+"""the key of a consolidated steps or units table's metadata that lists the columns in front of the runs' own."""
 TABLES = ("runs", "steps", "units", "scans", "jobs")
 """the consolidated tables, rebuilt from the job directories by ``consolidate``."""
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,199}$")
@@ -141,6 +156,9 @@ class _Bad(Exception):
 class Store:
     def __init__(self, root: str | Path):
         self.root = Path(root)
+        self._absorbed: dict[str, dict[str, pa.Table] | _Bad] = {}
+        """per ABSORBED table: each run's rows in it (its own columns only), or what is wrong with the file; read
+        once, forgotten when the tables are written."""
 
     # --- job directories ---
 
@@ -157,9 +175,11 @@ class Store:
                 return Loaded("missing")
             read = {}
             if tables and result["status"] == "done":
-                names = ("steps", "units") if kind == "run" else ("points",)
+                names = ABSORBED if kind == "run" else ("points",)
                 for name in names:
-                    read[name] = _read_table(directory / f"{name}.parquet", n_units)
+                    path = directory / f"{name}.parquet"
+                    absorbed = kind == "run" and not os.path.lexists(path)
+                    read[name] = self._rows(name, job_id) if absorbed else _read_table(path, n_units)
                 if kind == "run":
                     _check_counts(read, result["summary"], directory)
             return Loaded(result["status"], result, read)
@@ -330,14 +350,123 @@ class Store:
             "jobs": pd.DataFrame(job_rows, columns=["job_id", "kind", "status", "error", "wall_time_s"]),
         }
         if write:
+            kept = {key["run_id"] for key in unit_keys}
+            held = {name: self._absorbed_ids(name) for name in ABSORBED}
+            for run_id in set().union(*filter(None, held.values())) - kept:  # rows the new tables drop: back into
+                self.restore(run_id)                                          # their directories
+            unreadable = [self.root / f"{name}.parquet" for name in ABSORBED
+                          if held[name] is None or isinstance(self._absorbed.get(name), _Bad)]
+            self.set_aside([path for path in unreadable if os.path.lexists(path)])  # kept, never written over
             for name, table in tables.items():
                 self.write_table(name, table)
+            self._absorbed.clear()
+            for run_id in kept:  # only now, both tables written: a kill before leaves two copies, not none
+                for name in ABSORBED:
+                    (self.job_dir("run", run_id) / f"{name}.parquet").unlink(missing_ok=True)
         return tables
 
     def write_table(self, name: str, table: pd.DataFrame) -> Path:
+        """``DIR/<name>.parquet``, atomically: zstd, floats split by byte (half the size of the default snappy on
+        the records' floats; pandas, Arrow and DuckDB read it alike); a consolidated table of ABSORBED names its
+        columns in front of the runs' own in its metadata (``_split`` reads them as such)."""
         path = self.root / f"{name}.parquet"
-        atomic_write(path, lambda tmp: table.to_parquet(tmp, index=False))
+        arrow = pa.Table.from_pandas(table, preserve_index=False)
+        if name in ABSORBED:
+            front = [c for c in arrow.column_names if c not in JOB_SCHEMAS[name]]
+            arrow = arrow.replace_schema_metadata({**arrow.schema.metadata, FRONT: json.dumps(front).encode()})
+        floats = [f.name for f in arrow.schema if pa.types.is_floating(f.type)]
+        others = [c for c in arrow.column_names if c not in floats]
+        atomic_write(path, lambda tmp: pq.write_table(arrow, tmp, compression="zstd", use_dictionary=others,
+                                                      use_byte_stream_split=floats))
         return path
+
+    @contextmanager
+    def replayable(self, run_id: str) -> Iterator[Path]:
+        """A directory ``morphbench.render.render_run`` replays run ``run_id`` from (result.json and steps.parquet):
+        the run's own, or, consolidated, a temporary one with its result.json and its rows of steps.parquet (removed
+        after the block). ConfigError if the run is not done and sound."""
+        job = self.load("run", run_id)
+        directory = self.job_dir("run", run_id)
+        if job.status != "done":
+            why = f": {job.damage.line(self.root)}" if job.damage else ""
+            raise ConfigError(str(directory), RESULT, f"a finished run (status {job.status}{why})")
+        if (directory / "steps.parquet").is_file():
+            yield directory
+            return
+        with tempfile.TemporaryDirectory(prefix=f"morphbench-{run_id}-") as folder:
+            shutil.copyfile(directory / RESULT, Path(folder) / RESULT)
+            pq.write_table(job.tables["steps"], Path(folder) / "steps.parquet")
+            yield Path(folder)
+
+    # --- a run's rows in the consolidated tables ---
+
+    def _rows(self, name: str, run_id: str) -> pa.Table:
+        """Run ``run_id``'s rows of the consolidated table ``name`` (ABSORBED), its own columns, checked."""
+        rows = self._split_table(name)
+        path = self.root / f"{name}.parquet"
+        if isinstance(rows, _Bad):
+            raise _Bad(rows.path, rows.reason)
+        if run_id not in rows:
+            raise _Bad(path, f"run {run_id}'s rows (a done run's {name} are in its directory until the tables are "
+                             f"consolidated, then in {path.name}), got none")
+        _check_table(rows[run_id], JOB_SCHEMAS[name], path, f"run {run_id}'s rows")
+        return rows[run_id]
+
+    def _split_table(self, name: str) -> dict[str, pa.Table] | _Bad:
+        """The consolidated table ``name``'s rows per run (``_split``; none without the file), read once."""
+        if name not in self._absorbed:
+            path = self.root / f"{name}.parquet"
+            try:
+                if not os.path.lexists(path):
+                    rows: dict[str, pa.Table] | _Bad = {}
+                elif not path.is_file():
+                    raise _Bad(path, "a Parquet table, got a directory")
+                else:
+                    table = _parquet(path)
+                    declared = (table.schema.metadata or {}).get(FRONT)
+                    rows = _split(table, name, path, set(json.loads(declared)) if declared else self._front(name))
+            except _Bad as bad:
+                rows = bad
+            self._absorbed[name] = rows
+        return self._absorbed[name]
+
+    def _front(self, name: str) -> set[str] | None:
+        """The columns the plan puts in front of a run's own in the consolidated table ``name``; None without a
+        usable plan."""
+        try:
+            plan = self.read_plan()
+        except ConfigError:
+            plan = None
+        if plan is None:
+            return None
+        return set(_step_columns(plan)) - set(STEP_COLUMNS) if name == "steps" else {"run_id"}
+
+    def _absorbed_ids(self, name: str) -> set[str] | None:
+        """The runs with rows in the consolidated table ``name`` (only its run_id column read, unless it was read
+        whole already); None if it is there but unreadable."""
+        rows = self._absorbed.get(name)
+        if rows is not None:
+            return None if isinstance(rows, _Bad) else set(rows)
+        path = self.root / f"{name}.parquet"
+        if not os.path.lexists(path):
+            return set()
+        try:
+            return set(pq.read_table(path, columns=["run_id"]).column("run_id").unique().to_pylist())
+        except (OSError, ValueError, KeyError, pa.ArrowException):
+            return None
+
+    def restore(self, run_id: str) -> None:
+        """Write run ``run_id``'s rows of the consolidated tables back into its directory, where it has none: what
+        consolidating does for a run the new tables leave out (not in the plan, or damaged), and ``check --repair``
+        before moving a run's directory aside. Nothing for a run without a directory."""
+        directory = self.job_dir("run", run_id)
+        if not directory.is_dir():
+            return
+        for name in ABSORBED:
+            rows = self._split_table(name)
+            path = directory / f"{name}.parquet"
+            if not isinstance(rows, _Bad) and run_id in rows and not os.path.lexists(path):
+                atomic_write(path, lambda tmp, table=rows[run_id]: pq.write_table(table, tmp))
 
 
 def _job_row(job_id: str, kind: str, job: Loaded, root: Path) -> dict:
@@ -407,22 +536,33 @@ def _read_table(path: Path, n_units: int | None) -> pa.Table:
     if not path.is_file():
         what = "a directory" if path.is_dir() else "none"
         raise _Bad(path, f"the job's {path.name} (a done job has one), got {what}")
-    try:
-        table = pq.read_table(path)
-    except (OSError, ValueError, pa.ArrowException) as exc:
-        raise _Bad(path, f"a Parquet file ({describe(exc, where=False)[:160]})") from None
+    table = _parquet(path)
     if name == "points" and n_units is None:  # a scan part checked without its plan: any dphi columns
         n_units = 1 + sum(1 for c in table.column_names if re.fullmatch(r"dphi_\d+", c))
     schema = points_schema(n_units) if name == "points" else JOB_SCHEMAS[name]
+    _check_table(table, schema, path, path.name)
+    return table
+
+
+def _parquet(path: Path) -> pa.Table:
+    try:
+        return pq.read_table(path)
+    except (OSError, ValueError, pa.ArrowException) as exc:
+        raise _Bad(path, f"a Parquet file ({describe(exc, where=False)[:160]})") from None
+
+
+def _check_table(table: pa.Table, schema: dict[str, tuple[str, bool, bool]], path: Path, what: str) -> None:
+    """``table``'s columns, types and values against ``schema``; ``what`` names it in a reason (a file, or a run's
+    rows of a consolidated table)."""
     unknown = [c for c in table.column_names if c not in schema]
     if unknown or len(set(table.column_names)) < len(table.column_names):
-        raise _Bad(path, f"the columns of {path.name} ({', '.join(schema)}), got {_short(unknown or 'a repeated one')}")
+        raise _Bad(path, f"the columns of {what} ({', '.join(schema)}), got {_short(unknown or 'a repeated one')}")
     if table.num_rows == 0:
         raise _Bad(path, "at least one row, got none")
     for column, (kind, required, finite) in schema.items():
         if column not in table.column_names:
             if required:
-                raise _Bad(path, f"a column {column} (the columns of {path.name}: {', '.join(schema)}), got none")
+                raise _Bad(path, f"a column {column} (the columns of {what}: {', '.join(schema)}), got none")
             continue
         data = table.column(column)
         found = str(data.type)
@@ -437,7 +577,34 @@ def _read_table(path: Path, n_units: int | None) -> pa.Table:
                 row = int(np.flatnonzero(bad)[0])
                 raise _Bad(path, f"{'finite values' if finite else 'no infinite value'} in column {column}, got "
                                  f"{values[row]} in row {row}")
-    return table
+
+
+def _split(table: pa.Table, name: str, path: Path, front: set[str] | None) -> dict[str, pa.Table]:
+    """A consolidated table's rows per run, each with the run's own columns only (those of JOB_SCHEMAS; a column
+    the run lacked, null throughout its rows, left out). ``front``: the columns the plan puts in front of them (None
+    without a plan: any other column)."""
+    schema = JOB_SCHEMAS[name]
+    if "run_id" not in table.column_names or str(table.column("run_id").type) not in (STRING, "large_string") or \
+            table.column("run_id").null_count:
+        raise _Bad(path, "a consolidated table with a run_id in every row, got none")
+    own = [c for c in table.column_names if c in schema]
+    others = [c for c in table.column_names if c not in schema]
+    unknown = [c for c in others if front is not None and c not in front]
+    if unknown:
+        raise _Bad(path, f"the columns of {path.name} (the plan's in front of {', '.join(schema)}), got "
+                         f"{_short(unknown)}")
+    encoded = table.column("run_id").combine_chunks().dictionary_encode()  # codes in order of first appearance
+    codes, runs = encoded.indices.to_numpy(), encoded.dictionary.to_pylist()
+    if (np.diff(codes) < 0).any():  # a run's rows apart (an edited table): gathered, in their order
+        table, codes = table.take(np.argsort(codes, kind="stable")), np.sort(codes, kind="stable")
+    table = table.select(own)
+    rows, start = {}, 0
+    for run_id, count in zip(runs, np.bincount(codes, minlength=len(runs))):
+        part = table.slice(start, count)
+        start += count
+        lacked = [c for c in own if not schema[c][1] and part.column(c).null_count == count]
+        rows[run_id] = part.drop_columns(lacked) if lacked else part
+    return rows
 
 
 def _check_counts(tables: dict[str, pa.Table], summary: dict, directory: Path) -> None:

@@ -4,10 +4,10 @@
 
 Each experiment shows one run: the first seed of its first condition that finished (plan order; its result.json says
 so, whatever the consolidated tables hold). Its first learning
-steps are replayed (``morphbench.render.render_run`` on ``DIR/runs/<run_id>``, whose result.json holds the run's
-configuration; the replay is checked against the stored Ubar) up to the step that ends nearest ``VIDEO_SECONDS`` of
-simulated time, at ``REPORT_VIDEO``'s small size, in H.264 (render.writers). A video whose run, steps, parameters,
-morphbench version and encoder (PyAV or the OpenCV fallback) have not changed since it was rendered
+steps are replayed (``morphbench.render.render_run`` on the run's result.json, which holds its configuration, and its
+steps: ``Store.replayable``; the replay is checked against the stored Ubar) up to the step that ends nearest
+``VIDEO_SECONDS`` of simulated time, at ``REPORT_VIDEO``'s small size, in H.264 (render.writers). A video whose run,
+steps, parameters, morphbench version and encoder (PyAV or the OpenCV fallback) have not changed since it was rendered
 (``DIR/videos/<experiment>.json`` says what it shows) is reused: delete ``DIR/videos/`` to render again. Videos of
 experiments the plan no longer has are removed. A replay that fails is reported in its Video (``error``), never
 raised: the report goes on without that video.
@@ -124,24 +124,25 @@ def render_videos(root: str | Path, plan: dict | None = None, params: VideoParam
 
 def _render_one(root: Path, folder: Path, video: Video, params: VideoParams, seconds: float) -> Video:
     name = video.experiment
-    run_dir = root / "runs" / video.run_id
+    store = Store(root)
     out, record = folder / f"{name}.mp4", folder / f"{name}.json"
     started = time.perf_counter()
     try:
-        video.steps, video.simulated_s = steps_to_show(pd.read_parquet(run_dir / "steps.parquet"), seconds)
-        shown = dataclasses.replace(params, steps=video.steps)
-        from morphbench.render import writers  # OpenCV and PyAV, not the simulator
+        with store.replayable(video.run_id) as run_dir:
+            video.steps, video.simulated_s = steps_to_show(pd.read_parquet(run_dir / "steps.parquet"), seconds)
+            shown = dataclasses.replace(params, steps=video.steps)
+            from morphbench.render import writers  # OpenCV and PyAV, not the simulator
 
-        encoder = "pyav" if writers.pyav() is not None else "opencv"
-        key = json.loads(json.dumps({"run_id": video.run_id, "params": dataclasses.asdict(shown),
-                                     "morphbench": _version(), "encoder": encoder}))  # as stored: tuples are lists
-        if out.is_file() and _read_json(record).get("key") == key:
-            video.path, video.reused, video.codec = out, True, _read_json(record).get("codec", "")
-            return video
-        from morphbench.render import render_run  # the simulator, only now
+            encoder = "pyav" if writers.pyav() is not None else "opencv"
+            key = json.loads(json.dumps({"run_id": video.run_id, "params": dataclasses.asdict(shown),
+                                         "morphbench": _version(), "encoder": encoder}))  # as stored: tuples are lists
+            if out.is_file() and _read_json(record).get("key") == key:
+                video.path, video.reused, video.codec = out, True, _read_json(record).get("codec", "")
+                return video
+            from morphbench.render import render_run  # the simulator, only now
 
-        record.unlink(missing_ok=True)
-        video.path = render_run(run_dir, out, shown)
+            record.unlink(missing_ok=True)
+            video.path = render_run(run_dir, out, shown)
         video.codec = "h264" if encoder == "pyav" else "avc1" if writers._h264_works else "mp4v"
         write_text(record, json.dumps({"key": key, "codec": video.codec, "simulated_s": video.simulated_s},
                                       indent=1, sort_keys=True) + "\n")
