@@ -250,9 +250,22 @@ def _cmd_render(args) -> int:
             bar.total = total
             bar.update(done - bar.n)
 
-        path = render_run(args.run_dir, args.out, video_params_from_args(args), progress)
+        with _replayable(args.run_dir) as run_dir:
+            path = render_run(run_dir, args.out, video_params_from_args(args), progress)
     print(f"video in {path}")
     return 0
+
+
+def _replayable(run_dir: str):
+    """The directory to replay ``run_dir`` from: itself, or for a suite's run whose rows the consolidated tables
+    hold (``DIR/runs/<id>`` keeps only its result.json), a temporary one the results store gives."""
+    path = Path(run_dir)
+    root = path.parent.parent
+    if path.parent.name == "runs" and (root / "plan.json").is_file() and not (path / "steps.parquet").exists():
+        from morphbench.bench.store import Store
+
+        return Store(root).replayable(path.name)
+    return nullcontext(run_dir)
 
 
 def _cmd_scan(args) -> int:

@@ -177,6 +177,18 @@ def test_a_consolidated_run_replays_from_its_result_and_its_rows(reference):
     assert config.seed == outcome.tables["runs"].seed.iloc[0] and not directory.exists()  # the temporary one: gone
 
 
+def test_morphbench_render_replays_a_consolidated_run_of_a_suite(reference, tmp_path, capsys):
+    from conftest import run_cli
+
+    _, out, outcome = reference
+    run_id = outcome.tables["runs"].run_id.iloc[0]
+    assert not (out / "runs" / run_id / "steps.parquet").exists()  # its rows are in the consolidated tables only
+    code, _, err = run_cli(capsys, "render", str(out / "runs" / run_id), "--out", str(tmp_path / "v.gif"), "--quiet",
+                           "--video-width", "32", "--video-height", "32", "--video-fps", "2")
+    assert code == 0, err
+    assert (tmp_path / "v.gif").stat().st_size > 0
+
+
 def test_resuming_a_smaller_suite_keeps_the_rows_of_the_runs_it_leaves_out(reference, tmp_path):
     suite_path, out, outcome = reference
     copy = tmp_path / "copy"
