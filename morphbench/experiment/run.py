@@ -1,7 +1,8 @@
 """The run loop: one world, one sensor bank, one controller (one learner per unit, or a centralized baseline),
 learning steps of ``cycles_per_step`` cycles.
 
-The CLI, the scans and the tests all go through ``run`` (and ``measure`` for fixed phases).
+A run is driven through the phases of ``RunLoop`` by ``experiment.driver`` (``run``, ``run_batch``); the scans
+measure fixed phases with ``measure``.
 """
 
 from __future__ import annotations
@@ -9,7 +10,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -19,7 +19,7 @@ import numpy as np
 from morphbench.bench.identity import shape_id
 from morphbench.errors import ConfigError, PhysicsError
 from morphbench.experiment.records import RunRecords
-from morphbench.learning import Controller, load_learner_class, make_controller
+from morphbench.learning import Controller
 from morphbench.experiment.events import CutEvent, Event, RunState, parse_events
 from morphbench.params import (
     DEFAULT_PHYSICS,
@@ -33,7 +33,7 @@ from morphbench.params import (
     SensorParams,
     check_run,
 )
-from morphbench.physics import World, make_world
+from morphbench.physics import WorldInterface
 from morphbench.physics.bellows import link_spans
 from morphbench.physics.camera import CameraGround
 from morphbench.sensing import GroundTexture, IdealSensor, OpticalSensor, Sensor
@@ -96,7 +96,7 @@ class RunConfig:
 
 
 def make_sensor(params: SensorParams, n_units: int, environment: EnvironmentParams, seed: int,
-                world: World | None = None) -> Sensor:
+                world: WorldInterface | None = None) -> Sensor:
     """The sensor bank a run uses in ``world``; an optical one gets its own image-noise stream from the run seed."""
     if params.kind == "ideal":
         return IdealSensor(n_units, params.sample_period)
@@ -106,10 +106,10 @@ def make_sensor(params: SensorParams, n_units: int, environment: EnvironmentPara
         if params.kind == "camera":
             if world is None:
                 raise ValueError("make_sensor: the camera sensor renders its world's PyBullet scene; pass that world")
-            if world.client is None:
+            if world.scene is None:
                 raise ConfigError("--sensor", "sensor", "optical or ideal with the quasi-static physics (the camera "
                                   "sensor renders a PyBullet scene)", params.kind)
-            ground = CameraGround(world.client, ground)
+            ground = CameraGround(world.scene.client, ground)
         return OpticalSensor(n_units, params.optical, ground, rng, source="sensor.optical")
     raise ConfigError("--sensor", "sensor", f"one of {', '.join(SENSOR_KINDS)}", params.kind)
 
@@ -120,8 +120,8 @@ def ground_texture(params: GroundParams) -> GroundTexture:
     return GroundTexture(params, source="environment.ground")
 
 
-def measure(world: World, sensors: list[Sensor], n_cycles: int, on_tick: Callable[[World], None] | None = None
-            ) -> list[np.ndarray]:
+def measure(world: WorldInterface, sensors: list[Sensor], n_cycles: int,
+            on_tick: Callable[[WorldInterface], None] | None = None) -> list[np.ndarray]:
     """Advance ``n_cycles`` actuation cycles at the world's current phases; each sensor bank's displacement (m).
 
     ``on_tick(world)``, if given, is called after every physics tick (for observers such as a video recorder)."""
@@ -135,7 +135,7 @@ class Measurement:
     ended with the poses its ``advance_sampled(n_ticks, every)`` gives (so that several worlds, or the copies of one
     batched world, can be advanced together between the two)."""
 
-    def __init__(self, world: World, sensors: list[Sensor], n_ticks: int):
+    def __init__(self, world: WorldInterface, sensors: list[Sensor], n_ticks: int):
         self.sensors, self.n_ticks = sensors, n_ticks
         poses = world.unit_poses()
         for sensor in sensors:
@@ -153,45 +153,14 @@ class Measurement:
         return [sensor.displacement() for sensor in self.sensors]
 
 
-def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = None,
-        on_tick: Callable[[World], None] | None = None) -> RunRecords:
-    """Learn for ``config.steps`` learning steps; ``progress(step, records)`` is called after each step and
-    ``on_tick(world)`` after every physics tick of the warm-up and the steps (observers only: it must not change the
-    world).
-
-    Units keep their identity (learner, memory, noise stream, damage) when a shuffle moves them: ``order[p]`` is the
-    unit at position p (0 = front), and the world sees phases by position.
-
-    A learner that raises or returns no usable phase stops the run with a PluginError; physics that leaves the
-    model's validity (see ``_Validity``) stops it with a PhysicsError.
-    """
-    controller = make_controller(load_learner_class(config.learner), config.learner_params, config.seed,
-                                 config.shape.n_units)
-    records = RunRecords(config)
-    started = time.perf_counter()
-    with run_world(config) as world:
-        loop = RunLoop(config, controller, world, on_tick)
-        loop.warm_up()
-        for step in range(config.steps + 1):
-            loop.step(step, records)
-            if progress is not None:
-                progress(step, records)
-    records.finish(wall_time=time.perf_counter() - started)
-    return records
-
-
-def run_world(config: RunConfig) -> World:
-    """The world a run of ``config`` happens in (a PyBullet scene when its sensor is the camera)."""
-    return make_world(config.shape, config.physics, config.environment, scene=config.sensor.kind == "camera")
-
-
 class RunLoop:
-    """One run's world, sensors, controller and what events change; each method is a phase of the run.
+    """One run's world, sensors, controller and what events change; each method is a phase of a learning step:
+    ``apply_events``, ``propose``, (the discarded cycles), ``start_measurement``, (the measured cycles),
+    ``finish_step`` (measured, check_physics, update, record). ``experiment.driver.Driver`` takes every run of a
+    batch through them in that order: ``run``, the suites and the environments all go through it."""
 
-    ``run`` drives it, and so do the environments of morphbench.envs, one ``step`` at a time after ``warm_up``."""
-
-    def __init__(self, config: RunConfig, controller: Controller, world: World,
-                 on_tick: Callable[[World], None] | None):
+    def __init__(self, config: RunConfig, controller: Controller, world: WorldInterface,
+                 on_tick: Callable[[WorldInterface], None] | None):
         n = config.shape.n_units
         self.config, self.controller, self.world, self.on_tick = config, controller, world, on_tick
         self.noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u]))
@@ -212,20 +181,6 @@ class RunLoop:
         self.discard_ticks = world.ticks_in(lp.discard_cycles * cycle)
         """ticks run after each phase change before measuring (the transient dropped)."""
         self.measured_ticks = world.ticks_in(lp.cycles_per_step * cycle)
-
-    def warm_up(self) -> None:
-        """Start every pump at its initial kept phase and let the gait settle."""
-        self.world.set_phases(self.kept)
-        self.world.advance(self.warmup_ticks, self.observe)
-
-    def step(self, step: int, records: RunRecords) -> np.ndarray:
-        """Learning step ``step``, every phase in order, recorded; each unit's measured velocity (mm/cycle)."""
-        applied = self.apply_events(step)
-        tried = self.propose(step)
-        self.world.advance(self.discard_ticks, self.observe)
-        measurement = self.start_measurement()
-        samples = self.world.advance_sampled(self.measured_ticks, measurement.every, self.on_tick)
-        return self.finish_step(step, records, applied, tried, measurement, samples)
 
     def finish_step(self, step: int, records: RunRecords, applied: list[Event], tried: np.ndarray,
                     measurement: Measurement, samples: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
@@ -331,7 +286,7 @@ class _Validity:
     bellows of 5 cm, pumping in phase, swings its front unit 27 reaches per cycle, more than the exploding one's 16.
     """
 
-    def __init__(self, shape: Shape, world: World, events: tuple[Event, ...] = ()):
+    def __init__(self, shape: Shape, world: WorldInterface, events: tuple[Event, ...] = ()):
         self.shape, self.world = shape, world
         self.rest_height = shape.placed_positions()[:, 2]
         self.height = np.array([body.size[2] for body in shape.bodies], dtype=float)
