@@ -306,7 +306,7 @@ class Store:
             ids = {"run_id": run_id, "condition_id": entry["condition_id"]}
             run_rows.append({**ids, "experiments": ";".join(membership.get(run_id, [])), **condition,
                              "seed": entry["seed"], "status": row["status"], "error": row["error"],
-                             **{k: _float(summary.get(k)) for k in SUMMARY_COLUMNS},
+                             **{k: _float(summary.get(k)) for k in SUMMARY_COLUMNS}, "backend": summary.get("backend"),
                              "wall_time_s": row["wall_time_s"]})
             job_rows.append(row)
             if job.status == "done":
