@@ -254,6 +254,8 @@ MAX_TILT_DEG = 45.0
 """A body tipped further than this from upright has left the model: units slide upright on their four feet."""
 MAX_REACH_PER_CYCLE = 3.0
 """In bellows reaches per cycle, the fastest a body may move (see ``_Validity``)."""
+UPRIGHT_MARGIN = 1e-9
+"""How far above cos(MAX_TILT_DEG) a body's upright component must be to pass without the tilt detector."""
 LINK_MARGIN = 0.25
 """In bellows reaches, how far a link's length may leave the span its bellows holds it in (see ``_Validity``)."""
 
@@ -301,6 +303,9 @@ class _Validity:
         self.ends = np.array([(link.front, link.rear) for link in shape.links], dtype=int).reshape(-1, 2)
         self.cuts = [(event.step, event.link - 1) for event in events if isinstance(event, CutEvent)]
         self.positions, self.time = world.poses()[0], world.time
+        self.units, self.bodies = np.array(shape.units, dtype=int), np.arange(len(shape.bodies))
+        self.min_upright = math.cos(math.radians(MAX_TILT_DEG)) + UPRIGHT_MARGIN
+        self._link_cache: dict = {}
 
     def check(self, step: int, order: np.ndarray, samples: tuple[np.ndarray, np.ndarray]) -> None:
         """A PhysicsError naming the first body (or link) found outside the model (unit numbers by identity:
@@ -308,14 +313,58 @@ class _Validity:
         (K, n_units, 3) positions and (K, n_units, 4) quaternions, as ``advance_sampled`` gives them. The first
         detector that fires names what it found first, in the order above."""
         positions, orientations = self.world.poses()
-        frames = [(np.array(self.shape.units, dtype=int), *samples),  # the units inside the window
-                  (np.arange(len(self.shape.bodies)), positions[None], orientations[None])]  # every body at its end
-        for bodies, frame_positions, frame_orientations in frames:
-            self._check_bodies(step, order, bodies, frame_positions, frame_orientations)
-        self._check_speed(step, order, positions)
-        for bodies, frame_positions, _ in frames:
-            self._check_links(step, order, bodies, frame_positions)
+        frames = [(self.units, *samples),  # the units inside the window
+                  (self.bodies, positions[None], orientations[None])]  # every body at its end
+        if not self._surely_inside(step, frames, positions):
+            for bodies, frame_positions, frame_orientations in frames:
+                self._check_bodies(step, order, bodies, frame_positions, frame_orientations)
+            self._check_speed(step, order, positions)
+            for bodies, frame_positions, _ in frames:
+                self._check_links(step, order, bodies, frame_positions)
         self.positions, self.time = positions, self.world.time
+
+    def _surely_inside(self, step: int, frames: list, positions: np.ndarray) -> bool:
+        """Whether every detector passes, found at once (nearly every step of nearly every run): the detectors
+        themselves run only otherwise, and find what fails. Conservative: a tilt within UPRIGHT_MARGIN of the
+        bound is left to them; every other test is theirs, on the same numbers."""
+        for bodies, frame_positions, frame_orientations in frames:
+            if not (np.isfinite(frame_positions).all() and np.isfinite(frame_orientations).all()):
+                return False
+            q = frame_orientations
+            upright = 1.0 - 2.0 * (q[..., 0] ** 2 + q[..., 1] ** 2) / (q * q).sum(axis=-1)  # cos of the tilt
+            if not (upright >= self.min_upright).all():
+                return False
+            if not (frame_positions[..., 2] - self.rest_height[bodies] <= self.height[bodies]).all():
+                return False
+            links, length = self._link_lengths(step, bodies, frame_positions)
+            if not ((length >= self.span[0][links]) & (length <= self.span[1][links])).all():
+                return False
+        return bool((self._speeds(positions)[1] <= self.max_speed).all())
+
+    def _speeds(self, positions: np.ndarray) -> tuple[float, np.ndarray]:
+        """The cycles since the previous check, and every body's speed over them (m/cycle)."""
+        cycles = (self.world.time - self.time) / self.shape.actuator.cycle_time
+        d = positions - self.positions
+        moved = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])  # hypot: no overflow when a body flew off
+        return cycles, moved / cycles if cycles > 0 else np.zeros(len(moved))
+
+    def _links(self, step: int, bodies: np.ndarray) -> tuple[list[int], np.ndarray, np.ndarray]:
+        """The links not cut by ``step`` with both bodies among ``bodies``, and their ends' columns in ``bodies``
+        (kept while no cut changes them: they are asked twice a step)."""
+        cut = frozenset(link for at, link in self.cuts if at <= step)
+        key = (cut, len(bodies))
+        if key not in self._link_cache:
+            column = np.full(len(self.shape.bodies), -1)
+            column[bodies] = np.arange(len(bodies))
+            links = [j for j in range(len(self.ends)) if j not in cut and (column[self.ends[j]] >= 0).all()]
+            self._link_cache[key] = links, column[self.ends[links, 0]], column[self.ends[links, 1]]
+        return self._link_cache[key]
+
+    def _link_lengths(self, step: int, bodies: np.ndarray, positions: np.ndarray) -> tuple[list[int], np.ndarray]:
+        """``_links`` and each one's length in each of the frames ``positions`` (K, len(bodies), 3)."""
+        links, front, rear = self._links(step, bodies)
+        d = positions[:, front] - positions[:, rear]
+        return links, np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])
 
     def _check_bodies(self, step: int, order: np.ndarray, bodies: np.ndarray, positions: np.ndarray,
                       orientations: np.ndarray) -> None:
@@ -341,10 +390,7 @@ class _Validity:
 
     def _check_speed(self, step: int, order: np.ndarray, positions: np.ndarray) -> None:
         """Every body's speed since the previous check, from its position then and ``positions`` now."""
-        cycles = (self.world.time - self.time) / self.shape.actuator.cycle_time
-        d = positions - self.positions
-        moved = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])  # hypot: no overflow when a body flew off
-        speed = moved / cycles if cycles > 0 else np.zeros(len(moved))
+        cycles, speed = self._speeds(positions)
         for body in np.flatnonzero(~(speed <= self.max_speed)):
             reach = 1000 * self.max_speed / MAX_REACH_PER_CYCLE
             raise PhysicsError(self.shape.source, step, self._name(body, order),
@@ -355,13 +401,7 @@ class _Validity:
     def _check_links(self, step: int, order: np.ndarray, bodies: np.ndarray, positions: np.ndarray) -> None:
         """Every link not cut by ``step`` with both bodies among ``bodies`` within its span, in each of the frames
         ``positions`` (K, len(bodies), 3)."""
-        column = np.full(len(self.shape.bodies), -1)
-        column[bodies] = np.arange(len(bodies))
-        cut = {link for at, link in self.cuts if at <= step}
-        links = [j for j in range(len(self.ends)) if j not in cut and (column[self.ends[j]] >= 0).all()]
-        front, rear = column[self.ends[links, 0]], column[self.ends[links, 1]]
-        d = positions[:, front] - positions[:, rear]
-        length = np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])
+        links, length = self._link_lengths(step, bodies, positions)
         short, long = self.span[0][links], self.span[1][links]
         outside = (length < short) | (length > long)
         if not outside.any():
