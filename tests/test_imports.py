@@ -1,6 +1,7 @@
 """What importing a module brings with it: the metrics, the report and the plots need no simulator."""
 
 import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -66,3 +67,17 @@ if isinstance(world, QuasiStaticWorld) or world.client is None or physics.backen
 """
     whats = [what for _, what in world_names(ast.parse(code))]
     assert len(whats) == 5 and any("client is None" in w for w in whats) and any("'quasistatic'" in w for w in whats)
+
+
+def test_docs_architecture_names_every_module():
+    """docs/architecture.md (or, for bench/, the package docstring it points to) names every module of the package,
+    so a new maintainer finds each one's job there."""
+    architecture = (PACKAGE.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    missing = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if path.name == "__init__.py":
+            continue
+        listing = architecture + ast.get_docstring(ast.parse((path.parent / "__init__.py").read_text("utf-8")) or "")
+        if not re.search(rf"(^|[\s/`]){re.escape(path.name)}\b", listing, re.MULTILINE):
+            missing.append(path.relative_to(PACKAGE).as_posix())
+    assert not missing, f"modules docs/architecture.md does not name: {', '.join(missing)}"
