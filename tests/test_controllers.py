@@ -131,6 +131,7 @@ def test_a_suite_names_controllers_like_learners_and_its_report_compares_them(tm
     outcome = run_suite(load_suite(suite), tmp_path / "out", LocalExecutor(1), progress=False)
     runs = outcome.tables["runs"]
     assert dict(zip(runs.learner, runs.centralized)) == {"thermal": 0.0, "hill-climber": 1.0}
+    assert set(runs.backend) == {"quasistatic"}  # what 'auto' chose, recorded in the suite's runs table
     summary = json.loads((tmp_path / "out" / "runs" / runs.run_id.iloc[-1] / "result.json").read_text())["summary"]
     assert summary["centralized"] is True
     report = build_report(tmp_path / "out").read_text()

@@ -562,7 +562,7 @@ def _condition_keys(plan: dict) -> list[str]:
 
 def _run_columns(plan: dict) -> list[str]:
     return ["run_id", "condition_id", "experiments", *_condition_keys(plan), "seed", "status", "error",
-            *SUMMARY_COLUMNS, "wall_time_s"]
+            *SUMMARY_COLUMNS, "backend", "wall_time_s"]
 
 
 def _step_columns(plan: dict) -> list[str]:
