@@ -100,8 +100,10 @@ class Driver:
         measurements = self._each(lambda i, loop: loop.start_measurement(), loops)
         every = next(iter(measurements.values())).every if measurements else 1
         samples = self.batch.advance_sampled(measured, every, self.on_tick)
+        going = sorted(measurements)
+        inside = RunLoop.all_inside([loops[i] for i in going], step, [samples[i] for i in going]) if going else False
         return self._each(lambda i, loop: loop.finish_step(step, records[i], applied[i], tried[i], measurements[i],
-                                                           samples[i]), loops)
+                                                           samples[i], inside), loops)
 
     def finish(self) -> list[RunRecords | BaseException]:
         """Each run's records (its wall time the batch's shared out evenly), or the exception that stopped it."""

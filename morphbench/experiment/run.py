@@ -183,10 +183,12 @@ class RunLoop:
         self.measured_ticks = world.ticks_in(lp.cycles_per_step * cycle)
 
     def finish_step(self, step: int, records: RunRecords, applied: list[Event], tried: np.ndarray,
-                    measurement: Measurement, samples: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-        """The rest of ``step`` once its measured cycles are simulated: measurements, validity, update, record."""
+                    measurement: Measurement, samples: tuple[np.ndarray, np.ndarray], inside: bool = False
+                    ) -> np.ndarray:
+        """The rest of ``step`` once its measured cycles are simulated: measurements, validity, update, record
+        (``inside``: ``all_inside`` found the world valid, so the detectors need not run)."""
         u_measured, u_true = self.measured(measurement, *samples)
-        self.check_physics(step, samples)
+        self.check_physics(step, samples, inside)
         accepted = self.update(u_measured, step)
         self.record(records, step, tried, u_measured, u_true, accepted, applied)
         return u_measured
@@ -225,10 +227,16 @@ class RunLoop:
         u_measured[~self.state.alive()] = np.nan
         return u_measured, u_true
 
-    def check_physics(self, step: int, samples: tuple[np.ndarray, np.ndarray]) -> None:
+    def check_physics(self, step: int, samples: tuple[np.ndarray, np.ndarray], inside: bool = False) -> None:
         """A PhysicsError if the world has left the model's validity since the previous check, or at any of the
         measured cycles' ``samples`` (the units' sampled poses)."""
-        self.validity.check(step, self.state.order, samples)
+        self.validity.check(step, self.state.order, samples, inside)
+
+    @staticmethod
+    def all_inside(loops: list[RunLoop], step: int, samples: list[tuple[np.ndarray, np.ndarray]]) -> bool:
+        """Whether every run of ``loops`` (runs of one configuration but for the seed, each with its ``samples``)
+        is surely still in the model's validity: ``_Validity``'s tests at once over them all."""
+        return _Validity.all_inside([loop.validity for loop in loops], step, samples)
 
     def update(self, u_measured: np.ndarray, step: int) -> np.ndarray:
         """The controller gets the measurements (a per-unit learner its own unit's only); whether each unit accepted
@@ -307,15 +315,17 @@ class _Validity:
         self.min_upright = math.cos(math.radians(MAX_TILT_DEG)) + UPRIGHT_MARGIN
         self._link_cache: dict = {}
 
-    def check(self, step: int, order: np.ndarray, samples: tuple[np.ndarray, np.ndarray]) -> None:
+    def check(self, step: int, order: np.ndarray, samples: tuple[np.ndarray, np.ndarray], inside: bool = False
+              ) -> None:
         """A PhysicsError naming the first body (or link) found outside the model (unit numbers by identity:
         ``order[p]`` is the unit at position p); ``samples`` are the units' sampled poses of the measured cycles,
         (K, n_units, 3) positions and (K, n_units, 4) quaternions, as ``advance_sampled`` gives them. The first
-        detector that fires names what it found first, in the order above."""
+        detector that fires names what it found first, in the order above. With ``inside`` (``all_inside`` found
+        every test passes) the detectors do not run."""
         positions, orientations = self.world.poses()
         frames = [(self.units, *samples),  # the units inside the window
                   (self.bodies, positions[None], orientations[None])]  # every body at its end
-        if not self._surely_inside(step, frames, positions):
+        if not (inside or self._surely_inside(step, frames, positions, self.positions)):
             for bodies, frame_positions, frame_orientations in frames:
                 self._check_bodies(step, order, bodies, frame_positions, frame_orientations)
             self._check_speed(step, order, positions)
@@ -323,10 +333,23 @@ class _Validity:
                 self._check_links(step, order, bodies, frame_positions)
         self.positions, self.time = positions, self.world.time
 
-    def _surely_inside(self, step: int, frames: list, positions: np.ndarray) -> bool:
+    @staticmethod
+    def all_inside(validities: list[_Validity], step: int, samples: list[tuple[np.ndarray, np.ndarray]]) -> bool:
+        """``_surely_inside`` of several worlds at once (one validity each, of the same shape and events, checked at
+        the same times): their samples and poses stacked on a leading axis."""
+        first = validities[0]
+        poses = [validity.world.poses() for validity in validities]
+        positions = np.stack([p for p, _ in poses])
+        frames = [(first.units, np.stack([p for p, _ in samples]), np.stack([q for _, q in samples])),
+                  (first.bodies, positions[:, None], np.stack([q for _, q in poses])[:, None])]
+        return first._surely_inside(step, frames, positions, np.stack([v.positions for v in validities]))
+
+    def _surely_inside(self, step: int, frames: list, positions: np.ndarray, previous: np.ndarray) -> bool:
         """Whether every detector passes, found at once (nearly every step of nearly every run): the detectors
         themselves run only otherwise, and find what fails. Conservative: a tilt within UPRIGHT_MARGIN of the
-        bound is left to them; every other test is theirs, on the same numbers."""
+        bound is left to them; every other test is theirs, on the same numbers. ``frames`` as ``check`` makes
+        them, ``positions`` every body's now and ``previous`` at the previous check, all with any leading axes (the
+        runs of a batch)."""
         for bodies, frame_positions, frame_orientations in frames:
             if not (np.isfinite(frame_positions).all() and np.isfinite(frame_orientations).all()):
                 return False
@@ -339,14 +362,15 @@ class _Validity:
             links, length = self._link_lengths(step, bodies, frame_positions)
             if not ((length >= self.span[0][links]) & (length <= self.span[1][links])).all():
                 return False
-        return bool((self._speeds(positions)[1] <= self.max_speed).all())
+        return bool((self._speeds(positions, previous)[1] <= self.max_speed).all())
 
-    def _speeds(self, positions: np.ndarray) -> tuple[float, np.ndarray]:
-        """The cycles since the previous check, and every body's speed over them (m/cycle)."""
+    def _speeds(self, positions: np.ndarray, previous: np.ndarray) -> tuple[float, np.ndarray]:
+        """The cycles since the previous check, and every body's speed over them (m/cycle), from its positions then
+        and now."""
         cycles = (self.world.time - self.time) / self.shape.actuator.cycle_time
-        d = positions - self.positions
-        moved = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])  # hypot: no overflow when a body flew off
-        return cycles, moved / cycles if cycles > 0 else np.zeros(len(moved))
+        d = positions - previous
+        moved = np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])  # hypot: no overflow when a body flew off
+        return cycles, moved / cycles if cycles > 0 else np.zeros(moved.shape)
 
     def _links(self, step: int, bodies: np.ndarray) -> tuple[list[int], np.ndarray, np.ndarray]:
         """The links not cut by ``step`` with both bodies among ``bodies``, and their ends' columns in ``bodies``
@@ -361,9 +385,9 @@ class _Validity:
         return self._link_cache[key]
 
     def _link_lengths(self, step: int, bodies: np.ndarray, positions: np.ndarray) -> tuple[list[int], np.ndarray]:
-        """``_links`` and each one's length in each of the frames ``positions`` (K, len(bodies), 3)."""
+        """``_links`` and each one's length in each of the frames ``positions`` (..., K, len(bodies), 3)."""
         links, front, rear = self._links(step, bodies)
-        d = positions[:, front] - positions[:, rear]
+        d = positions[..., front, :] - positions[..., rear, :]
         return links, np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])
 
     def _check_bodies(self, step: int, order: np.ndarray, bodies: np.ndarray, positions: np.ndarray,
@@ -390,7 +414,7 @@ class _Validity:
 
     def _check_speed(self, step: int, order: np.ndarray, positions: np.ndarray) -> None:
         """Every body's speed since the previous check, from its position then and ``positions`` now."""
-        cycles, speed = self._speeds(positions)
+        cycles, speed = self._speeds(positions, self.positions)
         for body in np.flatnonzero(~(speed <= self.max_speed)):
             reach = 1000 * self.max_speed / MAX_REACH_PER_CYCLE
             raise PhysicsError(self.shape.source, step, self._name(body, order),
