@@ -34,12 +34,22 @@ class Copies(Batch):
     def __init__(self, shape: Shape, physics, environment, count: int):
         self.world = QuasiStaticWorld(copies_of(shape, count), physics, environment)
         self.n_units = shape.n_units
-        self.worlds = [Copy(self.world, index, shape) for index in range(count)]
+        self.worlds = [Copy(self, index, shape) for index in range(count)]
+        self._poses: tuple[np.ndarray, np.ndarray] | None = None
+
+    def poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every body's pose, computed once between advances (each run's loop reads its copy's several times a
+        step; a body's pose is the same computed alone or with the others)."""
+        if self._poses is None:
+            self._poses = self.world.poses()
+        return self._poses
 
     def advance(self, n_ticks, on_tick=None):
+        self._poses = None
         self.world.advance(n_ticks, on_tick)
 
     def advance_sampled(self, n_ticks, every, on_tick=None):
+        self._poses = None
         positions, orientations = self.world.advance_sampled(n_ticks, every, on_tick)
         n = self.n_units
         return [(np.ascontiguousarray(positions[:, c * n:(c + 1) * n]),
@@ -56,8 +66,9 @@ class Copy:
     backend = QuasiStaticWorld.backend
     scene: Scene | None = None
 
-    def __init__(self, world: QuasiStaticWorld, index: int, shape: Shape):
-        self.world, self.shape = world, shape
+    def __init__(self, batch: Copies, index: int, shape: Shape):
+        self.batch, self.world, self.shape = batch, batch.world, shape
+        world = batch.world
         self._bodies = index * len(shape.bodies)
         self._units = index * shape.n_units
         self._links = index * len(shape.links)
@@ -92,7 +103,8 @@ class Copy:
 
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
         index = np.arange(self._n_bodies) if which is None else np.asarray(which, dtype=int)
-        return self.world.poses(self._bodies + index)
+        positions, orientations = self.batch.poses()
+        return positions[self._bodies + index], orientations[self._bodies + index]
 
     def unit_poses(self) -> tuple[np.ndarray, np.ndarray]:
         return self.poses(self.shape.units)
