@@ -222,8 +222,9 @@ class RunLoop:
         position, to_mm_per_cycle = self.state.position(), 1000.0 / self.config.learner_params.cycles_per_step
         noise = self.state.noise
         u_true = true[position] * to_mm_per_cycle
-        u_measured = sensed[position] * to_mm_per_cycle + np.array(
-            [rng.normal(0.0, noise) if noise else 0.0 for rng in self.noise_rngs])
+        # 0.0 added without noise, as to every unit with it (-0.0 + 0.0 is 0.0: the records keep that)
+        u_measured = sensed[position] * to_mm_per_cycle + (np.array([rng.normal(0.0, noise) for rng in
+                                                                     self.noise_rngs]) if noise else 0.0)
         u_measured[~self.state.alive()] = np.nan
         return u_measured, u_true
 

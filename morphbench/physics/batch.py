@@ -15,6 +15,7 @@ import numpy as np
 
 from morphbench.physics.protocol import Batch, Scene
 from morphbench.physics.quasistatic import QuasiStaticWorld
+from morphbench.shapes.checks import connected_groups
 from morphbench.shapes.model import Shape
 
 
@@ -73,6 +74,7 @@ class Copy:
         self._units = index * shape.n_units
         self._links = index * len(shape.links)
         self._n_bodies = len(shape.bodies)
+        self._pieces: tuple[bytes, list[list[int]]] | None = None
         mine = world.link_units[self._links:self._links + len(shape.links)]
         self.link_units = np.where(mine >= 0, mine - self._units, -1)
 
@@ -110,8 +112,14 @@ class Copy:
         return self.poses(self.shape.units)
 
     def pieces(self) -> list[list[int]]:
-        first, last = self._bodies, self._bodies + self._n_bodies
-        return [[body - first for body in piece] for piece in self.world.pieces() if first <= piece[0] < last]
+        """The world's pieces of this copy (each sorted, sorted by their first body: the same computed over the
+        copy's own links), kept until a cut of the copy changes them."""
+        intact = self.world.intact[self._links:self._links + len(self.shape.links)]
+        key = intact.tobytes()
+        if self._pieces is None or self._pieces[0] != key:
+            links = [(link.front, link.rear) for link, whole in zip(self.shape.links, intact) if whole]
+            self._pieces = (key, connected_groups(self._n_bodies, links))
+        return [list(piece) for piece in self._pieces[1]]
 
     def set_damage(self, unit: int, mode: str) -> None:
         self.world.set_damage(self._units + unit, mode)
