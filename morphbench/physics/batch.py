@@ -75,6 +75,7 @@ class Copy:
         self._links = index * len(shape.links)
         self._n_bodies = len(shape.bodies)
         self._pieces: tuple[bytes, list[list[int]]] | None = None
+        self._all = np.arange(self._bodies, self._bodies + self._n_bodies)
         mine = world.link_units[self._links:self._links + len(shape.links)]
         self.link_units = np.where(mine >= 0, mine - self._units, -1)
 
@@ -104,9 +105,9 @@ class Copy:
         self.world.phases[self._units:self._units + len(phases)] = np.mod(phases, 1.0)
 
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
-        index = np.arange(self._n_bodies) if which is None else np.asarray(which, dtype=int)
+        index = self._all if which is None else self._bodies + np.asarray(which, dtype=int)
         positions, orientations = self.batch.poses()
-        return positions[self._bodies + index], orientations[self._bodies + index]
+        return positions[index], orientations[index]
 
     def unit_poses(self) -> tuple[np.ndarray, np.ndarray]:
         return self.poses(self.shape.units)
