@@ -32,7 +32,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 
-from morphbench.experiment.batch import run_batch  # noqa: E402
+from morphbench.experiment.driver import run_batch  # noqa: E402
 from morphbench.experiment.events import DamageEvent, FrictionEvent  # noqa: E402
 from morphbench.experiment.run import RunConfig  # noqa: E402
 from morphbench.experiment.scan import scan  # noqa: E402

@@ -1,4 +1,4 @@
-"""Seeds run together (morphbench.experiment.batch) give exactly the records each seed gives alone."""
+"""Seeds run together (morphbench.experiment.driver) give exactly the records each seed gives alone."""
 
 import dataclasses
 
@@ -8,7 +8,7 @@ import pytest
 
 from morphbench.errors import PluginError
 from morphbench.experiment import RunConfig, run
-from morphbench.experiment.batch import batchable, run_batch
+from morphbench.experiment.driver import batchable, run_batch
 from morphbench.experiment.events import parse_events
 from morphbench.params import (QUASISTATIC_PHYSICS, EnvironmentParams, FrictionFieldParams, LearnerParams,
                                SensorParams)

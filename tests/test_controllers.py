@@ -12,7 +12,7 @@ from morphbench.bench import LocalExecutor, build_report, load_suite, run_suite
 from morphbench.experiment import RunConfig, run
 from morphbench.experiment.events import parse_events
 from morphbench.experiment.records import RunRecords
-from morphbench.experiment.run import RunLoop, run_world
+from morphbench.experiment.driver import Driver
 from morphbench.learning import CENTRALIZED, Controller, load_learner_class
 from morphbench.params import EnvironmentParams, SensorParams
 from morphbench.shapes import load_shape
@@ -90,12 +90,13 @@ def test_a_controller_sees_the_measurements_a_thermal_run_s_units_see_at_the_sam
     config = RunConfig(shape=CHAIN_3, steps=15, seed=2, sensor=IDEAL, environment=EnvironmentParams(noise=0.3))
     thermal = run(config).units()
     tried = thermal.pivot(index="step", columns="unit", values="phase_tried").to_numpy()
-    replay, records = Replay(tried), RunRecords(config)
-    with run_world(config) as world:
-        loop = RunLoop(config, replay, world, None)
-        loop.warm_up()
+    replay = Replay(tried)
+    driver = Driver([config], [replay])
+    with driver.batch:
+        driver.warm_up()
         for step in range(config.steps + 1):
-            loop.step(step, records)
+            driver.step(step)
+    records = driver.records[0]
     measured = thermal.pivot(index="step", columns="unit", values="u_measured").to_numpy()
     assert np.array_equal(np.array(replay.seen), measured)  # noise included: the same per-unit streams
     assert np.array_equal(records.units().u_true, thermal.u_true)
@@ -130,6 +131,7 @@ def test_a_suite_names_controllers_like_learners_and_its_report_compares_them(tm
     outcome = run_suite(load_suite(suite), tmp_path / "out", LocalExecutor(1), progress=False)
     runs = outcome.tables["runs"]
     assert dict(zip(runs.learner, runs.centralized)) == {"thermal": 0.0, "hill-climber": 1.0}
+    assert set(runs.backend) == {"quasistatic"}  # what 'auto' chose, recorded in the suite's runs table
     summary = json.loads((tmp_path / "out" / "runs" / runs.run_id.iloc[-1] / "result.json").read_text())["summary"]
     assert summary["centralized"] is True
     report = build_report(tmp_path / "out").read_text()

@@ -35,12 +35,20 @@ from morphbench.params import (
     friction_inertia,
 )
 from morphbench.physics import QuasiStaticWorld, World, make_world
+from morphbench.physics.protocol import Single
 from morphbench.shapes import load_shape
 from morphbench.shapes.transforms import shuffle_order
 
 from conftest import SHAPES_DIR, chain, run_cli, write_suite
 
 run_module = importlib.import_module("morphbench.experiment.run")  # the package exports its function run by that name
+driver_module = importlib.import_module("morphbench.experiment.driver")
+
+
+def use_world(monkeypatch, world_class) -> None:
+    """Runs build their world as ``world_class(shape, physics, environment)``, a batch of one."""
+    monkeypatch.setattr(driver_module, "make_world", lambda shape, physics, environment, scene, copies: Single(
+        world_class(shape, physics, environment)))
 CHAIN2 = str(SHAPES_DIR / "chain-2.toml")
 IDEAL = SensorParams(kind="ideal")
 
@@ -213,8 +221,7 @@ class BrokenWorld(QuasiStaticWorld):
 def run_broken(monkeypatch, body: int | slice, fault, shape=None, steps: int = 3):
     """A short run of chain-2 (units are bodies 0 and 1, the dummy body 2) in a BrokenWorld."""
     world_class = type("Broken", (BrokenWorld,), {"body": body, "fault": staticmethod(fault)})
-    monkeypatch.setattr(run_module, "make_world", lambda shape, physics, environment, scene: world_class(
-        shape, physics, environment))
+    use_world(monkeypatch, world_class)
     return run(RunConfig(shape=shape or chain(2), steps=steps, sensor=IDEAL, physics=QUASISTATIC_PHYSICS))
 
 
@@ -295,8 +302,7 @@ def shift(metres: float):
 def test_motion_inside_the_measured_cycles_is_checked(monkeypatch, fault, name, what):
     """Each fault lasts one sample in the middle of the window and is gone where the window ends."""
     world_class = type("Broken", (SampleBrokenWorld,), {"body": 0, "fault": staticmethod(fault)})
-    monkeypatch.setattr(run_module, "make_world", lambda shape, physics, environment, scene: world_class(
-        shape, physics, environment))
+    use_world(monkeypatch, world_class)
     config = RunConfig(shape=chain(2), steps=3, sensor=IDEAL, physics=QUASISTATIC_PHYSICS)
     with pytest.raises(PhysicsError) as info:
         run(config)
@@ -312,8 +318,7 @@ def test_a_cut_link_lets_its_bodies_part(monkeypatch, cut):
     """Unit 1 moved 40 mm away from unit 2 (13 mm/cycle over the step, under the speed bound) tears link 1, unless
     that link was cut."""
     world_class = type("Broken", (BrokenWorld,), {"body": 0, "fault": staticmethod(shift(0.040))})
-    monkeypatch.setattr(run_module, "make_world", lambda shape, physics, environment, scene: world_class(
-        shape, physics, environment))
+    use_world(monkeypatch, world_class)
     config = RunConfig(shape=chain(3), steps=3, sensor=IDEAL, physics=QUASISTATIC_PHYSICS,
                        events=(CutEvent(step=1, link=1),) if cut else ())
     if cut:
@@ -345,8 +350,7 @@ def test_a_shuffled_unit_is_named_by_its_own_number(monkeypatch):
     config = RunConfig(shape=shape, steps=3, sensor=IDEAL, physics=QUASISTATIC_PHYSICS,
                        events=(ShuffleEvent(step=1, seed=1),))
     world_class = type("Broken", (BrokenWorld,), {"body": 0, "fault": staticmethod(tilt(60))})
-    monkeypatch.setattr(run_module, "make_world", lambda shape, physics, environment, scene: world_class(
-        shape, physics, environment))
+    use_world(monkeypatch, world_class)
     with pytest.raises(PhysicsError, match="at learning step 1: unit 2 tipped over"):
         run(config)
 
@@ -380,8 +384,7 @@ def test_the_issues_blow_ups_are_caught(shape, physics, what):
 
 def test_morphbench_run_exits_2_with_the_line_and_writes_nothing(monkeypatch, tmp_path, capsys):
     world_class = type("Broken", (BrokenWorld,), {"body": 0, "fault": staticmethod(tilt(80))})
-    monkeypatch.setattr(run_module, "make_world", lambda shape, physics, environment, scene: world_class(
-        shape, physics, environment))
+    use_world(monkeypatch, world_class)
     out = tmp_path / "run"
     status, _, err = run_cli(capsys, "run", CHAIN2, "--steps", "3", "--out", str(out), "--quiet", "--physics",
                              "quasistatic", "--sensor", "ideal")

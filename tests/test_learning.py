@@ -480,3 +480,29 @@ def test_thermal_beats_random_phase_changes_on_a_chain():
 
     thermal, random = final("thermal"), final("random")
     assert thermal > 2.0 and thermal > random + 1.5
+
+
+@pytest.mark.parametrize("name", ["thermal", "flaky", "random"])
+@pytest.mark.parametrize("initial_memory, temperature", [("measure", 0.5), ("-inf", 0.0), ("zero", math.inf),
+                                                         ("measure", 3.0)])
+def test_the_arrays_of_a_built_in_learner_step_as_its_objects(name, initial_memory, temperature):
+    """make_controller steps thermal, flaky and random as arrays over the units (learning/arrays.py): the same
+    proposals, acceptances, kept phases and memories as one learner object per unit, step by step, dead units
+    included, for every initial memory and temperature; more steps than a block of draws."""
+    from morphbench.learning.arrays import BLOCK, UnitArrays
+    from morphbench.learning.plugins import Decentralized, make_controller, make_learners
+
+    params = LearnerParams(initial_memory=initial_memory, temperature=temperature, step_size=0.3)
+    cls, n = load_learner_class(name), 5
+    arrays, objects = make_controller(cls, params, 7, n), Decentralized(make_learners(cls, params, 7, n))
+    assert isinstance(arrays, UnitArrays)
+    rng = np.random.default_rng(1)
+    assert np.array_equal(arrays.initial(), objects.initial())
+    for step in range(3 * BLOCK):
+        alive = np.arange(n) != (step // 40)  # unit 0, then 1, then 2 dies for a while
+        tried = arrays.propose(step, alive)
+        assert np.array_equal(tried, objects.propose(step, alive))
+        u = np.where(alive, rng.normal(0.0, 1.0, n), np.nan)
+        for got, expected in zip(arrays.update(step, u, alive), objects.update(step, u, alive)):
+            assert np.array_equal(got, expected)
+        assert np.array_equal(arrays.memory(), objects.memory(), equal_nan=True)

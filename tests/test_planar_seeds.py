@@ -34,14 +34,16 @@ def planar_library() -> list[str]:
 @pytest.fixture
 def worlds(monkeypatch):
     """Every world the runs of a test build (experiment.run closes them; their solver counters stay)."""
-    module = importlib.import_module("morphbench.experiment.run")
+    module = importlib.import_module("morphbench.experiment.driver")
     built = []
+    make_world = module.make_world
 
-    def keep(config):
-        built.append(module.make_world(config.shape, config.physics, config.environment))
-        return built[-1]
+    def keep(*args, **kwargs):
+        batch = make_world(*args, **kwargs)
+        built.extend(batch.worlds)
+        return batch
 
-    monkeypatch.setattr(module, "run_world", keep)
+    monkeypatch.setattr(module, "make_world", keep)
     return built
 
 

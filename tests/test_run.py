@@ -1,12 +1,14 @@
 """The run loop: reproducible, each learner fed only its own unit's measurement, and it learns to move."""
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
 
 from morphbench.errors import PluginError
 from morphbench.experiment import RunConfig, run
-from morphbench.params import EnvironmentParams, LearnerParams, SensorParams
+from morphbench.params import FAST_PHYSICS, EnvironmentParams, LearnerParams, SensorParams
 from morphbench.shapes import load_shape
 
 from conftest import SHAPES_DIR
@@ -159,3 +161,12 @@ def test_a_camera_sensor_needs_its_world():
 
     with pytest.raises(ValueError, match="camera sensor renders its world's PyBullet scene"):
         make_sensor(SensorParams(kind="camera"), 2, EnvironmentParams(), seed=0)
+
+
+def test_the_backend_auto_chose_is_recorded():
+    """'auto' is resolved once, by physics.resolve_backend, and summary.json says what it chose."""
+    chain = RunConfig(shape=load_shape(SHAPES_DIR / "chain-2.toml"), steps=1)
+    grid = dataclasses.replace(chain, shape=load_shape(SHAPES_DIR / "grid-2x2.toml"))
+    assert run(chain).summary()["backend"] == "quasistatic"
+    assert run(grid).summary()["backend"] == "planar"
+    assert run(dataclasses.replace(chain, physics=FAST_PHYSICS)).summary()["backend"] == "pybullet"

@@ -15,8 +15,7 @@ import numpy as np
 import pandas as pd
 
 from morphbench.errors import ConfigError, PhysicsError
-from morphbench.experiment.batch import run_batch
-from morphbench.experiment.run import run
+from morphbench.experiment.driver import run, run_batch
 from morphbench.experiment.scan import ScanPoint
 from morphbench.failures import describe
 

@@ -21,7 +21,7 @@ from morphbench.bench.jobs import execute
 from morphbench.bench.provenance import record_session
 from morphbench.bench.store import Store
 from morphbench.bench.model import Job, Suite
-from morphbench.experiment.batch import batchable
+from morphbench.experiment.driver import batchable
 from morphbench.experiment.run import RunConfig
 from morphbench.errors import ConfigError
 from morphbench.files import directory_lock
@@ -131,7 +131,7 @@ def _run_round(work: list[Job], executor, store: Store, outcome: Outcome, bar, n
 
 
 def batched(jobs: list[Job], size: int = BATCH_SEEDS) -> list[Job]:
-    """The run jobs of one condition that can run together (experiment.batch) as batch jobs of up to ``size``
+    """The run jobs of one condition that can run together (experiment.driver) as batch jobs of up to ``size``
     seeds, in job order; every other job as it is. Records are the same either way: only the speed differs."""
     groups: dict[RunConfig, list[Job]] = {}
     can: dict[RunConfig, bool] = {}
@@ -139,7 +139,7 @@ def batched(jobs: list[Job], size: int = BATCH_SEEDS) -> list[Job]:
     for job in jobs:
         condition = dataclasses.replace(job.payload, seed=0) if job.kind == "run" else None
         if condition is not None and condition not in can:
-            can[condition] = batchable(condition)  # builds a world: once per condition, not per run
+            can[condition] = batchable(condition)
         if condition is not None and can[condition]:
             groups.setdefault(condition, []).append(job)
         else:

@@ -326,7 +326,7 @@ class Store:
             ids = {"run_id": run_id, "condition_id": entry["condition_id"]}
             run_rows.append({**ids, "experiments": ";".join(membership.get(run_id, [])), **condition,
                              "seed": entry["seed"], "status": row["status"], "error": row["error"],
-                             **{k: _float(summary.get(k)) for k in SUMMARY_COLUMNS},
+                             **{k: _float(summary.get(k)) for k in SUMMARY_COLUMNS}, "backend": summary.get("backend"),
                              "wall_time_s": row["wall_time_s"]})
             job_rows.append(row)
             if job.status == "done":
@@ -729,7 +729,7 @@ def _condition_keys(plan: dict) -> list[str]:
 
 def _run_columns(plan: dict) -> list[str]:
     return ["run_id", "condition_id", "experiments", *_condition_keys(plan), "seed", "status", "error",
-            *SUMMARY_COLUMNS, "wall_time_s"]
+            *SUMMARY_COLUMNS, "backend", "wall_time_s"]
 
 
 def _step_columns(plan: dict) -> list[str]:

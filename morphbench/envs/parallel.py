@@ -1,7 +1,7 @@
 """A run as a PettingZoo parallel environment: one agent per active unit, each choosing its own unit's phase.
 
 Agent ``unit_i`` is unit i (1 = starts at the front; it keeps its name when a shuffle moves it). Each ``step`` is
-one learning step of the run loop (morphbench.experiment.run.RunLoop, the loop of ``morphbench run``): the step's
+one learning step of the run loop (morphbench.experiment.driver.Driver, the loop of ``morphbench run``): the step's
 events, the agents' phases in place of the learners' proposals, the discarded and measured cycles, the validity
 check, the records. An agent's action is its trial phase (``Box(0, 1, (1,))``, cycles: one finite real number, a
 Python or numpy int or float or a one-element array or list of one, wrapped modulo 1; anything else, and an action
@@ -39,7 +39,8 @@ except ImportError as exc:  # one line that says what to install, not a tracebac
 from morphbench.errors import ActionError, EpisodeOver, PhysicsError
 from morphbench.experiment.config import load_run_config
 from morphbench.experiment.records import RunRecords
-from morphbench.experiment.run import RunConfig, RunLoop, run_world
+from morphbench.experiment.driver import Driver
+from morphbench.experiment.run import RunConfig
 from morphbench.learning.base import wrap_phase
 from morphbench.learning.plugins import Decentralized, as_phase, learner_spec, unit_rng
 from morphbench.params import COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, PhysicsParams
@@ -98,7 +99,7 @@ class ParallelEnv(PettingZooParallelEnv):
                                     for a in self.possible_agents}
         self.records: RunRecords | None = None
         """the current (or last) episode's records."""
-        self._world = None
+        self._driver: Driver | None = None
         self._seed: int | None = None
         self.error: PhysicsError | None = None
         """the PhysicsError that ended the current episode, if one did."""
@@ -119,11 +120,14 @@ class ParallelEnv(PettingZooParallelEnv):
         self.config = dataclasses.replace(self.config, seed=self._seed)
         n = self.config.shape.n_units
         self._learners = [Agent(wrap_phase(float(unit_rng(self._seed, u).uniform(0.0, 1.0)))) for u in range(n)]
-        self.records = RunRecords(self.config)
         self._started = time.perf_counter()
-        self._world = run_world(self.config)
-        self._loop = RunLoop(self.config, Decentralized(self._learners), self._world, None)
-        self._loop.warm_up()
+        self._driver = Driver([self.config], [Decentralized(self._learners)])
+        self.records = self._driver.records[0]
+        if self._driver.outcome[0] is not None:  # its loop could not be built (a sensor the world cannot give)
+            failure = self._driver.outcome[0]
+            self.close()
+            raise failure
+        self._driver.warm_up()
         self.learning_step = 0
         """the learning step last run (0: the initial measurement, at reset)."""
         self.agents = list(self.possible_agents)
@@ -160,10 +164,13 @@ class ParallelEnv(PettingZooParallelEnv):
     def _measure(self):
         """Run the current step through the run loop; its observations, rewards, terminations, truncations, infos
         for the agents living before it, who leave ``agents`` when terminated or truncated."""
-        try:
-            u_measured = self._loop.step(self.learning_step, self.records)
-        except PhysicsError as exc:
-            return self._end(exc)
+        measured = self._driver.step(self.learning_step)
+        failure = self._driver.outcome[0]
+        if isinstance(failure, PhysicsError):
+            return self._end(failure)
+        if failure is not None:
+            raise failure
+        u_measured = measured[0]
         self._last = np.nan_to_num(u_measured, nan=0.0)
         last_step = self.learning_step == self.config.steps
         if last_step:
@@ -199,9 +206,9 @@ class ParallelEnv(PettingZooParallelEnv):
         return np.array([learner.phase for learner in self._learners])
 
     def close(self) -> None:
-        if self._world is not None:
-            self._world.close()
-            self._world = None
+        if self._driver is not None:
+            self._driver.close()
+            self._driver = None
 
 
 def _phase(agent: str, action: Any) -> float:

@@ -10,6 +10,6 @@ export_lazily(__name__, {
     "Event": "events", "parse_event": "events", "parse_events": "events",
     "RunRecords": "records",
     "load_run_config": "config", "run_config_from_table": "config",
-    "RunConfig": "run", "make_sensor": "run", "measure": "run", "run": "run",
+    "RunConfig": "run", "make_sensor": "run", "measure": "run", "run": "driver", "run_batch": "driver",
     "Motion": "scan", "motion_at": "scan", "scan": "scan", "scan_phases": "scan", "velocity_at": "scan",
 })

@@ -32,7 +32,7 @@ from morphbench.rules import check, check_rule
 from morphbench.shapes.transforms import shuffle_order
 
 if TYPE_CHECKING:  # configs and suites parse events without loading the simulator
-    from morphbench.physics import World
+    from morphbench.physics import WorldInterface
 
 
 @dataclass
@@ -58,7 +58,7 @@ class RunState:
         """Per unit: not dead."""
         return np.array([mode != "dead" for mode in self.damage])
 
-    def place_damage(self, world: World) -> None:
+    def place_damage(self, world: WorldInterface) -> None:
         """The world sees damage by position: it travels with its unit."""
         for p, unit in enumerate(self.order):
             world.set_damage(p, self.damage[unit])
@@ -80,7 +80,7 @@ class Event(ABC):
         """The kind's fields of the table ``item`` (at key ``where`` of ``source``), validated."""
 
     @abstractmethod
-    def apply(self, world: World, state: RunState) -> None:
+    def apply(self, world: WorldInterface, state: RunState) -> None:
         """Change ``world`` or ``state`` as the event does, at the start of its step."""
 
     @classmethod

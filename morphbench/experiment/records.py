@@ -61,6 +61,9 @@ class RunRecords:
         self._units: dict[str, list[np.ndarray]] = {name: [] for name in UNIT_COLUMNS}
         self._steps: dict[str, list] = {"step": [], "time_s": [], "event": []}
         self.wall_time: float | None = None
+        self.backend: str | None = None
+        """the physics backend the run's world used (``physics.resolve_backend``; 'auto' resolved), set by its
+        driver."""
 
     def add_step(self, step, time_s, tried, kept, u_measured, u_true, accepted, position, piece, xy, heading,
                  event="", u_memory=None) -> None:
@@ -149,6 +152,7 @@ class RunRecords:
             "config": self.config.to_dict(),
             "seed": self.config.seed,
             "centralized": is_centralized(self.config.learner),
+            "backend": self.backend,
             "n_units": self.config.shape.n_units,
             "steps": int(learning.step.max()) if len(learning) else 0,
             "final_ubar": final_value(steps.step, steps.ubar),

@@ -1,7 +1,8 @@
 """The run loop: one world, one sensor bank, one controller (one learner per unit, or a centralized baseline),
 learning steps of ``cycles_per_step`` cycles.
 
-The CLI, the scans and the tests all go through ``run`` (and ``measure`` for fixed phases).
+A run is driven through the phases of ``RunLoop`` by ``experiment.driver`` (``run``, ``run_batch``); the scans
+measure fixed phases with ``measure``.
 """
 
 from __future__ import annotations
@@ -9,7 +10,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -19,7 +19,7 @@ import numpy as np
 from morphbench.bench.identity import shape_id
 from morphbench.errors import ConfigError, PhysicsError
 from morphbench.experiment.records import RunRecords
-from morphbench.learning import Controller, load_learner_class, make_controller
+from morphbench.learning import Controller
 from morphbench.experiment.events import CutEvent, Event, RunState, parse_events
 from morphbench.params import (
     DEFAULT_PHYSICS,
@@ -33,7 +33,7 @@ from morphbench.params import (
     SensorParams,
     check_run,
 )
-from morphbench.physics import World, make_world
+from morphbench.physics import WorldInterface
 from morphbench.physics.bellows import link_spans
 from morphbench.physics.camera import CameraGround
 from morphbench.readers import params_from_dict
@@ -97,7 +97,7 @@ class RunConfig:
 
 
 def make_sensor(params: SensorParams, n_units: int, environment: EnvironmentParams, seed: int,
-                world: World | None = None) -> Sensor:
+                world: WorldInterface | None = None) -> Sensor:
     """The sensor bank a run uses in ``world``; an optical one gets its own image-noise stream from the run seed."""
     if params.kind == "ideal":
         return IdealSensor(n_units, params.sample_period)
@@ -107,10 +107,10 @@ def make_sensor(params: SensorParams, n_units: int, environment: EnvironmentPara
         if params.kind == "camera":
             if world is None:
                 raise ValueError("make_sensor: the camera sensor renders its world's PyBullet scene; pass that world")
-            if world.client is None:
+            if world.scene is None:
                 raise ConfigError("--sensor", "sensor", "optical or ideal with the quasi-static physics (the camera "
                                   "sensor renders a PyBullet scene)", params.kind)
-            ground = CameraGround(world.client, ground)
+            ground = CameraGround(world.scene.client, ground)
         return OpticalSensor(n_units, params.optical, ground, rng, source="sensor.optical")
     raise ConfigError("--sensor", "sensor", f"one of {', '.join(SENSOR_KINDS)}", params.kind)
 
@@ -121,8 +121,8 @@ def ground_texture(params: GroundParams) -> GroundTexture:
     return GroundTexture(params, source="environment.ground")
 
 
-def measure(world: World, sensors: list[Sensor], n_cycles: int, on_tick: Callable[[World], None] | None = None
-            ) -> list[np.ndarray]:
+def measure(world: WorldInterface, sensors: list[Sensor], n_cycles: int,
+            on_tick: Callable[[WorldInterface], None] | None = None) -> list[np.ndarray]:
     """Advance ``n_cycles`` actuation cycles at the world's current phases; each sensor bank's displacement (m).
 
     ``on_tick(world)``, if given, is called after every physics tick (for observers such as a video recorder)."""
@@ -136,7 +136,7 @@ class Measurement:
     ended with the poses its ``advance_sampled(n_ticks, every)`` gives (so that several worlds, or the copies of one
     batched world, can be advanced together between the two)."""
 
-    def __init__(self, world: World, sensors: list[Sensor], n_ticks: int):
+    def __init__(self, world: WorldInterface, sensors: list[Sensor], n_ticks: int):
         self.sensors, self.n_ticks = sensors, n_ticks
         poses = world.unit_poses()
         for sensor in sensors:
@@ -154,45 +154,14 @@ class Measurement:
         return [sensor.displacement() for sensor in self.sensors]
 
 
-def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = None,
-        on_tick: Callable[[World], None] | None = None) -> RunRecords:
-    """Learn for ``config.steps`` learning steps; ``progress(step, records)`` is called after each step and
-    ``on_tick(world)`` after every physics tick of the warm-up and the steps (observers only: it must not change the
-    world).
-
-    Units keep their identity (learner, memory, noise stream, damage) when a shuffle moves them: ``order[p]`` is the
-    unit at position p (0 = front), and the world sees phases by position.
-
-    A learner that raises or returns no usable phase stops the run with a PluginError; physics that leaves the
-    model's validity (see ``_Validity``) stops it with a PhysicsError.
-    """
-    controller = make_controller(load_learner_class(config.learner), config.learner_params, config.seed,
-                                 config.shape.n_units)
-    records = RunRecords(config)
-    started = time.perf_counter()
-    with run_world(config) as world:
-        loop = RunLoop(config, controller, world, on_tick)
-        loop.warm_up()
-        for step in range(config.steps + 1):
-            loop.step(step, records)
-            if progress is not None:
-                progress(step, records)
-    records.finish(wall_time=time.perf_counter() - started)
-    return records
-
-
-def run_world(config: RunConfig) -> World:
-    """The world a run of ``config`` happens in (a PyBullet scene when its sensor is the camera)."""
-    return make_world(config.shape, config.physics, config.environment, scene=config.sensor.kind == "camera")
-
-
 class RunLoop:
-    """One run's world, sensors, controller and what events change; each method is a phase of the run.
+    """One run's world, sensors, controller and what events change; each method is a phase of a learning step:
+    ``apply_events``, ``propose``, (the discarded cycles), ``start_measurement``, (the measured cycles),
+    ``finish_step`` (measured, check_physics, update, record). ``experiment.driver.Driver`` takes every run of a
+    batch through them in that order: ``run``, the suites and the environments all go through it."""
 
-    ``run`` drives it, and so do the environments of morphbench.envs, one ``step`` at a time after ``warm_up``."""
-
-    def __init__(self, config: RunConfig, controller: Controller, world: World,
-                 on_tick: Callable[[World], None] | None):
+    def __init__(self, config: RunConfig, controller: Controller, world: WorldInterface,
+                 on_tick: Callable[[WorldInterface], None] | None):
         n = config.shape.n_units
         self.config, self.controller, self.world, self.on_tick = config, controller, world, on_tick
         self.noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u]))
@@ -214,25 +183,13 @@ class RunLoop:
         """ticks run after each phase change before measuring (the transient dropped)."""
         self.measured_ticks = world.ticks_in(lp.cycles_per_step * cycle)
 
-    def warm_up(self) -> None:
-        """Start every pump at its initial kept phase and let the gait settle."""
-        self.world.set_phases(self.kept)
-        self.world.advance(self.warmup_ticks, self.observe)
-
-    def step(self, step: int, records: RunRecords) -> np.ndarray:
-        """Learning step ``step``, every phase in order, recorded; each unit's measured velocity (mm/cycle)."""
-        applied = self.apply_events(step)
-        tried = self.propose(step)
-        self.world.advance(self.discard_ticks, self.observe)
-        measurement = self.start_measurement()
-        samples = self.world.advance_sampled(self.measured_ticks, measurement.every, self.on_tick)
-        return self.finish_step(step, records, applied, tried, measurement, samples)
-
     def finish_step(self, step: int, records: RunRecords, applied: list[Event], tried: np.ndarray,
-                    measurement: Measurement, samples: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-        """The rest of ``step`` once its measured cycles are simulated: measurements, validity, update, record."""
+                    measurement: Measurement, samples: tuple[np.ndarray, np.ndarray], inside: bool = False
+                    ) -> np.ndarray:
+        """The rest of ``step`` once its measured cycles are simulated: measurements, validity, update, record
+        (``inside``: ``all_inside`` found the world valid, so the detectors need not run)."""
         u_measured, u_true = self.measured(measurement, *samples)
-        self.check_physics(step, samples)
+        self.check_physics(step, samples, inside)
         accepted = self.update(u_measured, step)
         self.record(records, step, tried, u_measured, u_true, accepted, applied)
         return u_measured
@@ -266,15 +223,22 @@ class RunLoop:
         position, to_mm_per_cycle = self.state.position(), 1000.0 / self.config.learner_params.cycles_per_step
         noise = self.state.noise
         u_true = true[position] * to_mm_per_cycle
-        u_measured = sensed[position] * to_mm_per_cycle + np.array(
-            [rng.normal(0.0, noise) if noise else 0.0 for rng in self.noise_rngs])
+        # 0.0 added without noise, as to every unit with it (-0.0 + 0.0 is 0.0: the records keep that)
+        u_measured = sensed[position] * to_mm_per_cycle + (np.array([rng.normal(0.0, noise) for rng in
+                                                                     self.noise_rngs]) if noise else 0.0)
         u_measured[~self.state.alive()] = np.nan
         return u_measured, u_true
 
-    def check_physics(self, step: int, samples: tuple[np.ndarray, np.ndarray]) -> None:
+    def check_physics(self, step: int, samples: tuple[np.ndarray, np.ndarray], inside: bool = False) -> None:
         """A PhysicsError if the world has left the model's validity since the previous check, or at any of the
         measured cycles' ``samples`` (the units' sampled poses)."""
-        self.validity.check(step, self.state.order, samples)
+        self.validity.check(step, self.state.order, samples, inside)
+
+    @staticmethod
+    def all_inside(loops: list[RunLoop], step: int, samples: list[tuple[np.ndarray, np.ndarray]]) -> bool:
+        """Whether every run of ``loops`` (runs of one configuration but for the seed, each with its ``samples``)
+        is surely still in the model's validity: ``_Validity``'s tests at once over them all."""
+        return _Validity.all_inside([loop.validity for loop in loops], step, samples)
 
     def update(self, u_measured: np.ndarray, step: int) -> np.ndarray:
         """The controller gets the measurements (a per-unit learner its own unit's only); whether each unit accepted
@@ -300,6 +264,8 @@ MAX_TILT_DEG = 45.0
 """A body tipped further than this from upright has left the model: units slide upright on their four feet."""
 MAX_REACH_PER_CYCLE = 3.0
 """In bellows reaches per cycle, the fastest a body may move (see ``_Validity``)."""
+UPRIGHT_MARGIN = 1e-9
+"""How far above cos(MAX_TILT_DEG) a body's upright component must be to pass without the tilt detector."""
 LINK_MARGIN = 0.25
 """In bellows reaches, how far a link's length may leave the span its bellows holds it in (see ``_Validity``)."""
 
@@ -332,7 +298,7 @@ class _Validity:
     bellows of 5 cm, pumping in phase, swings its front unit 27 reaches per cycle, more than the exploding one's 16.
     """
 
-    def __init__(self, shape: Shape, world: World, events: tuple[Event, ...] = ()):
+    def __init__(self, shape: Shape, world: WorldInterface, events: tuple[Event, ...] = ()):
         self.shape, self.world = shape, world
         self.rest_height = shape.placed_positions()[:, 2]
         self.height = np.array([body.size[2] for body in shape.bodies], dtype=float)
@@ -347,21 +313,84 @@ class _Validity:
         self.ends = np.array([(link.front, link.rear) for link in shape.links], dtype=int).reshape(-1, 2)
         self.cuts = [(event.step, event.link - 1) for event in events if isinstance(event, CutEvent)]
         self.positions, self.time = world.poses()[0], world.time
+        self.units, self.bodies = np.array(shape.units, dtype=int), np.arange(len(shape.bodies))
+        self.min_upright = math.cos(math.radians(MAX_TILT_DEG)) + UPRIGHT_MARGIN
+        self._link_cache: dict = {}
 
-    def check(self, step: int, order: np.ndarray, samples: tuple[np.ndarray, np.ndarray]) -> None:
+    def check(self, step: int, order: np.ndarray, samples: tuple[np.ndarray, np.ndarray], inside: bool = False
+              ) -> None:
         """A PhysicsError naming the first body (or link) found outside the model (unit numbers by identity:
         ``order[p]`` is the unit at position p); ``samples`` are the units' sampled poses of the measured cycles,
         (K, n_units, 3) positions and (K, n_units, 4) quaternions, as ``advance_sampled`` gives them. The first
-        detector that fires names what it found first, in the order above."""
+        detector that fires names what it found first, in the order above. With ``inside`` (``all_inside`` found
+        every test passes) the detectors do not run."""
         positions, orientations = self.world.poses()
-        frames = [(np.array(self.shape.units, dtype=int), *samples),  # the units inside the window
-                  (np.arange(len(self.shape.bodies)), positions[None], orientations[None])]  # every body at its end
-        for bodies, frame_positions, frame_orientations in frames:
-            self._check_bodies(step, order, bodies, frame_positions, frame_orientations)
-        self._check_speed(step, order, positions)
-        for bodies, frame_positions, _ in frames:
-            self._check_links(step, order, bodies, frame_positions)
+        frames = [(self.units, *samples),  # the units inside the window
+                  (self.bodies, positions[None], orientations[None])]  # every body at its end
+        if not (inside or self._surely_inside(step, frames, positions, self.positions)):
+            for bodies, frame_positions, frame_orientations in frames:
+                self._check_bodies(step, order, bodies, frame_positions, frame_orientations)
+            self._check_speed(step, order, positions)
+            for bodies, frame_positions, _ in frames:
+                self._check_links(step, order, bodies, frame_positions)
         self.positions, self.time = positions, self.world.time
+
+    @staticmethod
+    def all_inside(validities: list[_Validity], step: int, samples: list[tuple[np.ndarray, np.ndarray]]) -> bool:
+        """``_surely_inside`` of several worlds at once (one validity each, of the same shape and events, checked at
+        the same times): their samples and poses stacked on a leading axis."""
+        first = validities[0]
+        poses = [validity.world.poses() for validity in validities]
+        positions = np.stack([p for p, _ in poses])
+        frames = [(first.units, np.stack([p for p, _ in samples]), np.stack([q for _, q in samples])),
+                  (first.bodies, positions[:, None], np.stack([q for _, q in poses])[:, None])]
+        return first._surely_inside(step, frames, positions, np.stack([v.positions for v in validities]))
+
+    def _surely_inside(self, step: int, frames: list, positions: np.ndarray, previous: np.ndarray) -> bool:
+        """Whether every detector passes, found at once (nearly every step of nearly every run): the detectors
+        themselves run only otherwise, and find what fails. Conservative: a tilt within UPRIGHT_MARGIN of the
+        bound is left to them; every other test is theirs, on the same numbers. ``frames`` as ``check`` makes
+        them, ``positions`` every body's now and ``previous`` at the previous check, all with any leading axes (the
+        runs of a batch)."""
+        for bodies, frame_positions, frame_orientations in frames:
+            if not (np.isfinite(frame_positions).all() and np.isfinite(frame_orientations).all()):
+                return False
+            q = frame_orientations
+            upright = 1.0 - 2.0 * (q[..., 0] ** 2 + q[..., 1] ** 2) / (q * q).sum(axis=-1)  # cos of the tilt
+            if not (upright >= self.min_upright).all():
+                return False
+            if not (frame_positions[..., 2] - self.rest_height[bodies] <= self.height[bodies]).all():
+                return False
+            links, length = self._link_lengths(step, bodies, frame_positions)
+            if not ((length >= self.span[0][links]) & (length <= self.span[1][links])).all():
+                return False
+        return bool((self._speeds(positions, previous)[1] <= self.max_speed).all())
+
+    def _speeds(self, positions: np.ndarray, previous: np.ndarray) -> tuple[float, np.ndarray]:
+        """The cycles since the previous check, and every body's speed over them (m/cycle), from its positions then
+        and now."""
+        cycles = (self.world.time - self.time) / self.shape.actuator.cycle_time
+        d = positions - previous
+        moved = np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])  # hypot: no overflow when a body flew off
+        return cycles, moved / cycles if cycles > 0 else np.zeros(moved.shape)
+
+    def _links(self, step: int, bodies: np.ndarray) -> tuple[list[int], np.ndarray, np.ndarray]:
+        """The links not cut by ``step`` with both bodies among ``bodies``, and their ends' columns in ``bodies``
+        (kept while no cut changes them: they are asked twice a step)."""
+        cut = frozenset(link for at, link in self.cuts if at <= step)
+        key = (cut, len(bodies))
+        if key not in self._link_cache:
+            column = np.full(len(self.shape.bodies), -1)
+            column[bodies] = np.arange(len(bodies))
+            links = [j for j in range(len(self.ends)) if j not in cut and (column[self.ends[j]] >= 0).all()]
+            self._link_cache[key] = links, column[self.ends[links, 0]], column[self.ends[links, 1]]
+        return self._link_cache[key]
+
+    def _link_lengths(self, step: int, bodies: np.ndarray, positions: np.ndarray) -> tuple[list[int], np.ndarray]:
+        """``_links`` and each one's length in each of the frames ``positions`` (..., K, len(bodies), 3)."""
+        links, front, rear = self._links(step, bodies)
+        d = positions[..., front, :] - positions[..., rear, :]
+        return links, np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])
 
     def _check_bodies(self, step: int, order: np.ndarray, bodies: np.ndarray, positions: np.ndarray,
                       orientations: np.ndarray) -> None:
@@ -387,10 +416,7 @@ class _Validity:
 
     def _check_speed(self, step: int, order: np.ndarray, positions: np.ndarray) -> None:
         """Every body's speed since the previous check, from its position then and ``positions`` now."""
-        cycles = (self.world.time - self.time) / self.shape.actuator.cycle_time
-        d = positions - self.positions
-        moved = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])  # hypot: no overflow when a body flew off
-        speed = moved / cycles if cycles > 0 else np.zeros(len(moved))
+        cycles, speed = self._speeds(positions, self.positions)
         for body in np.flatnonzero(~(speed <= self.max_speed)):
             reach = 1000 * self.max_speed / MAX_REACH_PER_CYCLE
             raise PhysicsError(self.shape.source, step, self._name(body, order),
@@ -401,13 +427,7 @@ class _Validity:
     def _check_links(self, step: int, order: np.ndarray, bodies: np.ndarray, positions: np.ndarray) -> None:
         """Every link not cut by ``step`` with both bodies among ``bodies`` within its span, in each of the frames
         ``positions`` (K, len(bodies), 3)."""
-        column = np.full(len(self.shape.bodies), -1)
-        column[bodies] = np.arange(len(bodies))
-        cut = {link for at, link in self.cuts if at <= step}
-        links = [j for j in range(len(self.ends)) if j not in cut and (column[self.ends[j]] >= 0).all()]
-        front, rear = column[self.ends[links, 0]], column[self.ends[links, 1]]
-        d = positions[:, front] - positions[:, rear]
-        length = np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])
+        links, length = self._link_lengths(step, bodies, positions)
         short, long = self.span[0][links], self.span[1][links]
         outside = (length < short) | (length > long)
         if not outside.any():

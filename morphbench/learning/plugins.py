@@ -64,6 +64,7 @@ import numpy as np
 from morphbench.errors import ConfigError, PluginError
 from morphbench.failures import describe
 from morphbench.learning.base import Controller, wrap_phase
+from morphbench.learning.arrays import UnitArrays
 from morphbench.learning.baselines import RandomLearner
 from morphbench.learning.controllers import CENTRALIZED, controller_rng
 from morphbench.learning.metropolis import FlakyLearner, ThermalLearner
@@ -72,6 +73,9 @@ from morphbench.streams import LEARNER_STREAM
 
 LEARNERS: dict[str, type] = {"thermal": ThermalLearner, "flaky": FlakyLearner, "random": RandomLearner, **CENTRALIZED}
 """Every built-in by ``--learner`` name: the per-unit learners, then the centralized controllers."""
+
+ARRAYS = {ThermalLearner: "thermal", FlakyLearner: "flaky", RandomLearner: "random"}
+"""The per-unit built-ins a run steps as arrays over its units (learning/arrays.py), with the same draws."""
 
 _SOURCE = "--learner"
 _SPEC_FORM = ("'thermal', 'flaky' or 'random' (per unit), 'cmaes', 'random-search' or 'hill-climber' (centralized; "
@@ -164,9 +168,12 @@ def make_learners(cls: type, params: LearnerParams, seed: int, n_units: int) -> 
 
 def make_controller(cls: type, params: LearnerParams, seed: int, n_units: int) -> Controller:
     """What the run loop drives for learner class ``cls``: a centralized controller with ``controller_rng(seed)``,
-    or ``make_learners``' per-unit learners as one Decentralized controller."""
+    a built-in per-unit learner's arrays over the units (the same streams and draws as its objects), or a plug-in's
+    ``make_learners`` as one Decentralized controller."""
     if cls in CENTRALIZED.values():
         return cls(params, controller_rng(seed), n_units)
+    if cls in ARRAYS:
+        return UnitArrays(ARRAYS[cls], params, [unit_rng(seed, unit) for unit in range(n_units)], learner_spec(cls))
     return Decentralized(make_learners(cls, params, seed, n_units))
 
 

@@ -1,9 +1,10 @@
 """Physics: the only package (with rendering) that talks to PyBullet.
 
-Three worlds behind one interface (set phases, advance ticks, read poses; damage, cuts, friction): the PyBullet
-``World`` for any shape, and the quasi-static model (springs and Coulomb friction without inertia), solved exactly
-along a line by ``QuasiStaticWorld`` for chains and by ``PlanarWorld`` for any assembly in one layer on the ground.
-``make_world`` picks the one ``physics`` names.
+Three worlds behind one declared interface (``protocol.WorldInterface``: set phases, advance ticks, read poses;
+damage, cuts, friction; ``backend`` and ``scene``): the PyBullet ``World`` for any shape, and the quasi-static model
+(springs and Coulomb friction without inertia), solved exactly along a line by ``QuasiStaticWorld`` for chains and
+by ``PlanarWorld`` for any assembly in one layer on the ground; and the copies of a batch (``batch.Copy``).
+``make_world`` builds the one ``resolve_backend`` picks for a configuration, alone or as a ``Batch`` of copies.
 """
 
 import ctypes
@@ -48,11 +49,39 @@ from morphbench.physics.planar import PlanarWorld, check_one_layer  # noqa: E402
 from morphbench.physics.pressure import pressure_trajectory, pump_on  # noqa: E402
 from morphbench.physics.quasistatic import QuasiStaticWorld, chain_axis  # noqa: E402
 from morphbench.physics.world import World  # noqa: E402
+from morphbench.physics.batch import Copies  # noqa: E402
+from morphbench.physics.protocol import Batch, Scene, Single, WorldInterface  # noqa: E402
+
+
+def resolve_backend(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams(),
+                    scene: bool = False) -> str:
+    """The backend ``make_world`` builds for this configuration, decided without building it ('auto': the
+    quasi-static model for any shape in one layer on the ground, along its axis for a chain, unless ``scene`` asks
+    for a PyBullet scene to render, as the camera sensor does; PyBullet for stacks). A quasi-static model outside its
+    range (``check_quasistatic_friction``) is a ConfigError, also when 'auto' picks it: a run is never switched to
+    another model behind its back."""
+    if physics.backend not in PHYSICS_BACKENDS:
+        raise ConfigError("physics", "backend", f"one of {', '.join(PHYSICS_BACKENDS)}", physics.backend)
+    if physics.backend == "pybullet" or (physics.backend == "auto" and scene):
+        return World.backend
+    try:
+        chain_axis(shape)
+        backend = QuasiStaticWorld.backend
+    except ConfigError:
+        try:
+            check_one_layer(shape)
+        except ConfigError:
+            if physics.backend == "quasistatic":
+                raise
+            return World.backend  # auto: a stack
+        backend = PlanarWorld.backend
+    check_quasistatic_friction(shape, environment, shape.source)
+    return backend
 
 
 def quasistatic_world(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
-    """The quasi-static model of ``shape``: along its axis for a chain, in the plane for any other one-layer shape; a
-    ConfigError for a stack."""
+    """The quasi-static model of ``shape``, whatever its friction: along its axis for a chain, in the plane for any
+    other one-layer shape; a ConfigError for a stack (benchmarks/fidelity.py compares it with PyBullet)."""
     try:
         chain_axis(shape)
     except ConfigError:
@@ -61,25 +90,35 @@ def quasistatic_world(shape, physics: PhysicsParams, environment: EnvironmentPar
     return QuasiStaticWorld(shape, physics, environment)
 
 
-def make_world(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams(),
-               scene: bool = False):
-    """A world of ``shape`` on the backend ``physics.backend`` ('auto': the quasi-static model for any shape in one
-    layer on the ground, unless ``scene`` asks for a PyBullet scene to render, as the camera sensor does; PyBullet
-    for stacks). A quasi-static world outside the model's range (``check_quasistatic_friction``) is refused, also when
-    'auto' picks it: a run is never switched to another model behind its back."""
-    if physics.backend not in PHYSICS_BACKENDS:
-        raise ConfigError("physics", "backend", f"one of {', '.join(PHYSICS_BACKENDS)}", physics.backend)
-    if physics.backend == "pybullet" or (physics.backend == "auto" and scene):
-        return World(shape, physics, environment)
+BACKENDS = {World.backend: World, QuasiStaticWorld.backend: QuasiStaticWorld, PlanarWorld.backend: PlanarWorld}
+"""Every world class by the backend name ``resolve_backend`` gives: a new backend is one module and one entry here
+(and its choice in params.PHYSICS_BACKENDS, its rule in ``resolve_backend``)."""
+BATCHING = {QuasiStaticWorld.backend: Copies}
+"""The backends that hold a batch's copies in one world, and the batch that does."""
+
+
+def can_batch(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams(),
+              scene: bool = False) -> bool:
+    """Whether ``make_world(..., copies=n)`` holds the copies in one world (decided without building one)."""
     try:
-        world = quasistatic_world(shape, physics, environment)
+        return resolve_backend(shape, physics, environment, scene) in BATCHING
     except ConfigError:
-        if physics.backend == "quasistatic":
-            raise
-        return World(shape, physics, environment)  # auto: a stack
-    check_quasistatic_friction(shape, environment, shape.source)
-    return world
+        return False
 
 
-__all__ = ["PlanarWorld", "QuasiStaticWorld", "World", "make_world", "pressure_trajectory", "pump_on",
-           "quasistatic_world"]
+def make_world(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams(),
+               scene: bool = False, copies: int | None = None) -> WorldInterface | Batch:
+    """A world of ``shape`` on the backend ``resolve_backend`` picks. With ``copies``, a Batch whose ``worlds`` are
+    that many copies advanced together: one world in a batch of one, or the copies of one batched world (a
+    ValueError if the backend cannot hold more than one, see ``can_batch``)."""
+    backend = resolve_backend(shape, physics, environment, scene)
+    if copies is None or copies == 1:
+        world = BACKENDS[backend](shape, physics, environment)
+        return world if copies is None else Single(world)
+    if backend not in BATCHING:
+        raise ValueError(f"make_world: the {backend} backend holds one copy of an assembly, asked for {copies}")
+    return BATCHING[backend](shape, physics, environment, copies)
+
+
+__all__ = ["BACKENDS", "Batch", "PlanarWorld", "QuasiStaticWorld", "Scene", "World", "WorldInterface", "can_batch",
+           "make_world", "pressure_trajectory", "pump_on", "quasistatic_world", "resolve_backend"]

@@ -8,6 +8,7 @@ import numpy as np
 from morphbench.params import DAMAGE_MODES, GRAVITY, EnvironmentParams, check_quasistatic_friction
 from morphbench.physics.friction import NO_FIELD, FrictionField
 from morphbench.physics.pressure import pressure_trajectory
+from morphbench.physics.protocol import Scene
 from morphbench.shapes.checks import connected_groups
 from morphbench.shapes.model import Shape
 
@@ -24,9 +25,13 @@ def link_spans(shape: Shape) -> tuple[np.ndarray, np.ndarray]:
 
 
 class Bellows:
-    """The base of both worlds; a subclass sets ``tick`` (s) and moves the bodies."""
+    """The base of every world (physics.protocol.WorldInterface); a subclass sets ``tick`` (s), ``backend`` and
+    moves the bodies."""
 
     tick: float
+    backend: str
+    scene: Scene | None = None
+    """a world with a PyBullet scene of its own gives it (World)."""
 
     def __init__(self, shape: Shape, environment: EnvironmentParams):
         self.shape, self.environment = shape, environment

@@ -60,10 +60,10 @@ def friction_radius(length: float, width: float, samples: int = 64) -> float:
 class PlanarWorld(QuasiStatic):
     """The same interface as the other worlds: set phases, advance ticks, read poses; damage, cuts, friction.
 
-    Bodies slide and turn on the ground at their shape's height. ``client`` is None: there is no PyBullet scene.
+    Bodies slide and turn on the ground at their shape's height. There is no PyBullet scene.
     """
 
-    client = None
+    backend = "planar"
 
     def __init__(self, shape: Shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
         super().__init__(shape, environment)

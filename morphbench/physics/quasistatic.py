@@ -55,10 +55,10 @@ class QuasiStaticWorld(QuasiStatic):
     """The same interface as the PyBullet ``World``: set phases, advance ticks, read poses; damage, cuts, friction.
 
     Bodies move along the chain's axis only and keep their orientation; they rest on the ground at their shape's
-    height. ``client`` is None: there is no PyBullet scene (a camera sensor needs one).
+    height. There is no PyBullet scene (a camera sensor needs one).
     """
 
-    client = None
+    backend = "quasistatic"
 
     def __init__(self, shape: Shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
         super().__init__(shape, environment)

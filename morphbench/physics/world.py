@@ -27,6 +27,7 @@ import pybullet as pb
 from morphbench.params import FAST_PHYSICS, EnvironmentParams, PhysicsParams
 from morphbench.physics.bellows import FIELD_UPDATE_PERIOD, GRAVITY, Bellows
 from morphbench.physics.geometry import body_shapes
+from morphbench.physics.protocol import Scene
 from morphbench.shapes.model import Shape
 
 GROUND_FRICTION = 1.0  # Bullet multiplies the two bodies' coefficients, so a body's own value is the real one
@@ -39,6 +40,8 @@ springs enough for 1/120 s, and inertia is negligible next to friction at these 
 
 class World(Bellows):
     """One simulation: build it from a shape, set the units' phases, advance time, read the units' poses."""
+
+    backend = "pybullet"
 
     def __init__(self, shape: Shape, physics: PhysicsParams = FAST_PHYSICS,
                  environment: EnvironmentParams = EnvironmentParams()):
@@ -157,6 +160,11 @@ class World(Bellows):
     def set_friction_scale(self, scale: float) -> None:
         super().set_friction_scale(scale)
         self._apply_friction(self.poses()[0], None)
+
+    @property
+    def scene(self) -> Scene | None:
+        """The client, bodies and ground plane (None once closed)."""
+        return None if self.client is None else Scene(self.client, self.bodies, self.ground)
 
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
         """Positions (N, 3, m) and orientations (N, 4 quaternions x, y, z, w) of the given bodies (default all)."""

@@ -1,7 +1,7 @@
 """Off-screen video of a world: an ``on_tick`` observer that renders frames and writes an MP4 or a GIF.
 
-``VideoRecorder`` is passed as ``on_tick`` to ``run()`` or ``measure()`` (or ``World.advance`` through a lambda). Every
-``speed / fps`` simulated seconds it renders one frame:
+``VideoRecorder`` is passed as ``on_tick`` to ``run()`` or ``measure()`` (or to a world's ``advance`` through a
+lambda). Every ``speed / fps`` simulated seconds it renders one frame:
 
 - the bodies, with PyBullet's TinyRenderer (software, needs no display), through the world's own client; each active
   unit is coloured by the pressure of the bellows it drives, from blue (empty) to red (full); dummies are grey and
@@ -170,13 +170,14 @@ class VideoRecorder:
 
     def _attach(self, world) -> None:
         self.world = world
-        if world.client is None:  # a world with no scene of its own (quasi-static): draw its bodies in ours
+        scene = world.scene
+        if scene is None:  # a world with no scene of its own (quasi-static): draw its bodies in ours
             self._scene = RenderScene(world.shape)
             c, body_ids = self._scene.client, self._scene.bodies
         else:
-            c, body_ids = world.client, world.bodies
+            c, body_ids = scene.client, scene.bodies
             # hide the physics plane: the recorder draws its own ground, far faster
-            pb.changeVisualShape(world.ground, -1, rgbaColor=[0, 0, 0, 0], physicsClientId=c)
+            pb.changeVisualShape(scene.ground, -1, rgbaColor=[0, 0, 0, 0], physicsClientId=c)
         self._client, self._body_ids = c, body_ids
         shape = world.shape
         width, height = self.params.width, self.params.height

@@ -1,0 +1,153 @@
+"""The one driver of the run loop: a batch of runs advanced step by step through the phases of ``RunLoop``.
+
+    records = run(config)                               # a batch of one: its records, or it raises what ended it
+    outcomes = run_batch([config_seed_0, config_seed_1, ...])   # RunRecords, or the exception that ended that run
+    driver = Driver([config], [controller]); driver.warm_up(); driver.step(0) ...   # the environments, a step each
+
+A run is a batch of one world (``physics.make_world(..., copies=1)``); runs that differ only in their seeds share one
+world holding a copy of the assembly each when the backend can (``batchable``), so the simulator is called once per
+step for all of them. Each run keeps its own loop: its controller, sensors, noise streams, events, validity checks
+and records, so every run's records equal those of ``run`` with the same configuration, bit for bit
+(tests/test_batch.py). A run that fails (a plug-in error, a PhysicsError) stops alone: its copy goes on moving,
+unseen, and the other runs finish.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Callable
+
+import numpy as np
+
+from morphbench.experiment.records import RunRecords
+from morphbench.experiment.run import RunConfig, RunLoop
+from morphbench.learning import Controller, load_learner_class, make_controller
+from morphbench.physics import WorldInterface, can_batch, make_world
+
+
+def batchable(config: RunConfig) -> bool:
+    """Whether runs of ``config`` with other seeds can share one world (decided without building one)."""
+    return can_batch(config.shape, config.physics, config.environment, scene=config.sensor.kind == "camera")
+
+
+class Driver:
+    """Runs of ``configs`` (equal but for their seeds) in one batch of worlds; ``outcome[i]`` is None while run i
+    goes on, else the exception that stopped it (or, after ``finish``, its records). ``controllers`` replace the
+    ones the configurations name (the environments' agents); ``on_tick(world)`` observes every tick of a batch of
+    one."""
+
+    def __init__(self, configs: list[RunConfig], controllers: list[Controller] | None = None,
+                 on_tick: Callable[[WorldInterface], None] | None = None):
+        first = configs[0]
+        for config in configs[1:]:
+            if dataclasses.replace(config, seed=first.seed) != first:
+                raise ValueError("run_batch: configurations must differ only in their seeds")
+        if on_tick is not None and len(configs) > 1:
+            raise ValueError("Driver: an observer watches the world of one run")
+        self.started = time.perf_counter()
+        self.configs, self.on_tick = configs, on_tick
+        self.outcome: list[RunRecords | BaseException | None] = [None] * len(configs)
+        if controllers is None:
+            controllers = self._each(lambda i, _: make_controller(load_learner_class(configs[i].learner),
+                                                                  configs[i].learner_params, configs[i].seed,
+                                                                  configs[i].shape.n_units), configs)
+        self.batch = make_world(first.shape, first.physics, first.environment, scene=first.sensor.kind == "camera",
+                                copies=len(configs))
+        self.records = [RunRecords(config) for config in configs]
+        self.loops: dict[int, RunLoop] = self._each(
+            lambda i, world: RunLoop(configs[i], controllers[i], world, on_tick), self.batch.worlds)
+        for record, world in zip(self.records, self.batch.worlds):
+            record.backend = world.backend
+        some = next(iter(self.loops.values()), None)
+        self.ticks = (some.warmup_ticks, some.discard_ticks, some.measured_ticks) if some else (0, 0, 0)
+        world = self.batch.worlds[0]
+        self.observe = (lambda k: on_tick(world)) if on_tick is not None else None
+
+    def _each(self, action, items) -> dict:
+        """``action(index, item)`` for every run still going, by index; a run whose action raises stops there."""
+        done = {}
+        for index, item in enumerate(items):
+            if self.outcome[index] is None:
+                try:
+                    done[index] = action(index, item)
+                except (Exception, SystemExit) as exc:  # the run's failure, as run() raises it
+                    self.outcome[index] = exc
+        return done
+
+    def going(self) -> bool:
+        return any(outcome is None for outcome in self.outcome)
+
+    def warm_up(self) -> None:
+        """Start every pump at its initial kept phase and let the gait settle."""
+        self._each(lambda i, loop: loop.world.set_phases(loop.kept), self._loops())
+        if self.going():
+            self.batch.advance(self.ticks[0], self.observe)
+
+    def _loops(self) -> list[RunLoop | None]:
+        return [self.loops.get(i) for i in range(len(self.configs))]
+
+    def step(self, step: int) -> dict[int, np.ndarray]:
+        """Learning step ``step`` of every run still going, every phase in order, recorded; per run by index its
+        units' measured velocities (mm/cycle)."""
+        loops, records = self._loops(), self.records
+        applied = self._each(lambda i, loop: loop.apply_events(step), loops)
+        tried = self._each(lambda i, loop: loop.propose(step), loops)
+        if not self.going():
+            return {}
+        _, discard, measured = self.ticks
+        self.batch.advance(discard, self.observe)
+        measurements = self._each(lambda i, loop: loop.start_measurement(), loops)
+        every = next(iter(measurements.values())).every if measurements else 1
+        samples = self.batch.advance_sampled(measured, every, self.on_tick)
+        going = sorted(measurements)
+        inside = RunLoop.all_inside([loops[i] for i in going], step, [samples[i] for i in going]) if going else False
+        return self._each(lambda i, loop: loop.finish_step(step, records[i], applied[i], tried[i], measurements[i],
+                                                           samples[i], inside), loops)
+
+    def finish(self) -> list[RunRecords | BaseException]:
+        """Each run's records (its wall time the batch's shared out evenly), or the exception that stopped it."""
+        wall = (time.perf_counter() - self.started) / len(self.configs)
+        for index, record in enumerate(self.records):
+            if self.outcome[index] is None:
+                record.finish(wall_time=wall)
+                self.outcome[index] = record
+        return self.outcome
+
+    def close(self) -> None:
+        self.batch.close()
+
+
+def run_batch(configs: list[RunConfig], progress: Callable[[int, RunRecords], None] | None = None,
+              on_tick: Callable[[WorldInterface], None] | None = None) -> list[RunRecords | BaseException]:
+    """Run ``configs`` (equal but for their seeds; more than one only if ``batchable``) together; per configuration
+    its records, or the exception that stopped it. ``progress(step, records)`` is called after each step of each run
+    going on; ``on_tick`` as for ``run``."""
+    driver = Driver(configs, on_tick=on_tick)
+    with driver.batch:
+        driver.warm_up()
+        for step in range(configs[0].steps + 1):
+            driver.step(step)
+            if progress is not None:
+                for index, record in enumerate(driver.records):
+                    if driver.outcome[index] is None:
+                        progress(step, record)
+        return driver.finish()
+
+
+def run(config: RunConfig, progress: Callable[[int, RunRecords], None] | None = None,
+        on_tick: Callable[[WorldInterface], None] | None = None) -> RunRecords:
+    """Learn for ``config.steps`` learning steps; ``progress(step, records)`` is called after each step and
+    ``on_tick(world)`` after every physics tick of the warm-up and the steps (observers only: it must not change the
+    world).
+
+    Units keep their identity (learner, memory, noise stream, damage) when a shuffle moves them: ``order[p]`` is the
+    unit at position p (0 = front), and the world sees phases by position.
+
+    A learner that raises or returns no usable phase stops the run with a PluginError; physics that leaves the
+    model's validity (see ``run._Validity``) stops it with a PhysicsError.
+    """
+    outcome, = run_batch([config], progress, on_tick)
+    if isinstance(outcome, BaseException):
+        raise outcome
+    return outcome

@@ -1,0 +1,101 @@
+"""The built-in per-unit learners of a run (thermal, flaky, random) stepped as arrays over its units.
+
+Each unit keeps its own state and its own random stream (``plugins.unit_rng``), and draws from it exactly the numbers
+``metropolis.MetropolisLearner`` or ``baselines.RandomLearner`` draws, in the same order: every draw of those learners
+is one double of the unit's stream (``uniform(low, high)`` is ``low + (high - low) * random()``), so a stream read
+ahead in blocks (``Draws``) gives the same numbers as one draw at a time. A run's records are therefore the same,
+bit for bit, as with one learner object per unit (tests/test_learning.py), at a fraction of the Python per step.
+Plug-ins keep their per-unit objects (``plugins.Decentralized``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from morphbench.errors import PluginError
+from morphbench.learning.base import Controller, initial_memory, wrap_phases
+from morphbench.learning.metropolis import acceptance_probability
+from morphbench.params import LearnerParams, check_params
+
+BLOCK = 64
+"""doubles read ahead from each unit's stream at a time."""
+
+
+class Draws:
+    """Each unit's random stream, read ahead in blocks: ``next(units)`` is the next double of each of ``units``'
+    streams, as ``rng.random()`` would give it."""
+
+    def __init__(self, rngs: list[np.random.Generator]):
+        self.rngs = rngs
+        self.block = np.empty((len(rngs), BLOCK))
+        self.used = np.full(len(rngs), BLOCK)
+
+    def next(self, units: np.ndarray) -> np.ndarray:
+        for unit in units[self.used[units] == BLOCK]:
+            self.block[unit], self.used[unit] = self.rngs[unit].random(BLOCK), 0
+        values = self.block[units, self.used[units]]
+        self.used[units] += 1
+        return values
+
+
+class UnitArrays(Controller):
+    """``rule`` 'thermal', 'flaky' or 'random' for every unit of a run, unit u drawing from ``rngs[u]``."""
+
+    centralized = False
+
+    def __init__(self, rule: str, params: LearnerParams, rngs: list[np.random.Generator], name: str):
+        check_params(params, "LearnerParams")
+        self.rule, self.params, self.name = rule, params, name
+        self.draws = Draws(rngs)
+        self.phase = self.draws.next(np.arange(len(rngs)))  # uniform(0, 1): already in [0, 1)
+        first = initial_memory(params)
+        self._memory = np.full(len(rngs), math.nan if first is None else first)
+        self.measured = np.full(len(rngs), first is not None)
+        """per unit, whether it has a memory to compare with (not so before its first measurement, 'measure')."""
+        self.trial = self.phase.copy()
+
+    def initial(self) -> np.ndarray:
+        return self.phase.copy()
+
+    def propose(self, step: int, alive: np.ndarray) -> np.ndarray:
+        trial = self.phase.copy()  # a dead unit keeps its phase; a Metropolis unit's first trial is its phase
+        if self.rule == "random":
+            asking = np.flatnonzero(alive)
+            trial[asking] = self.draws.next(asking)
+        else:
+            asking = np.flatnonzero(alive & self.measured)
+            eps = -1.0 + 2.0 * self.draws.next(asking)
+            trial[asking] = wrap_phases(self.phase[asking] + eps * self.params.step_size)
+        self.trial = trial
+        return trial.copy()
+
+    def update(self, step: int, u_measured: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        live = np.flatnonzero(alive)
+        velocity = np.asarray(u_measured, dtype=float)
+        accepted = np.zeros(len(self.phase), dtype=bool)
+        if self.rule == "random":
+            self.phase[live], self._memory[live] = self.trial[live], velocity[live]
+            accepted[live] = True
+            return accepted, self.phase.copy()
+        bad = live[~np.isfinite(velocity[live])]
+        if len(bad):  # a NaN would compare as 'not worse' and poison the memory for good
+            raise PluginError(self.name, "update(velocity)", f"of unit {bad[0] + 1} at learning step {step} to "
+                              f"return (it raised ValueError: measured velocity must be finite, got "
+                              f"{float(velocity[bad[0]])!r})")
+        first, rest = live[~self.measured[live]], live[self.measured[live]]
+        self._memory[first], self.measured[first] = velocity[first], True
+        accepted[first] = True
+        worse = rest[velocity[rest] < self._memory[rest]]
+        accepted[rest] = True  # no draw: a trial at least as good is always accepted
+        for unit, draw in zip(worse, self.draws.next(worse)):
+            accepted[unit] = draw < acceptance_probability(velocity[unit] - self._memory[unit],
+                                                           self.params.temperature)
+        self.phase[accepted] = self.trial[accepted]
+        remembers = rest if self.rule == "flaky" else rest[accepted[rest]]
+        self._memory[remembers] = velocity[remembers]
+        return accepted, self.phase.copy()
+
+    def memory(self) -> np.ndarray:
+        return self._memory.copy()
