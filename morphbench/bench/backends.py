@@ -2,7 +2,8 @@
 and on the quasi-static model), condition by condition: what each backend gives and where they disagree.
 
 ``compare(a, b)`` reads both directories' ``metrics.parquet`` (written by ``morphbench report``) and pairs the
-conditions that are equal in every condition column but ``physics`` (and the ids that hash it). Per pair and per
+conditions that are equal in every condition column but ``physics``, the ``backend`` it resolved to and the ids that
+hash them. Per pair and per
 compared metric (final Ubar, U_eq where the fit has a plateau, steps to 0.8 U_eq, mean acceptance) it gives both
 values and the difference b - a.
 Final Ubar has a standard error over seeds in each directory; the pair **disagrees** when the difference exceeds
@@ -38,7 +39,7 @@ SHOWN = ("physics_a", "physics_b", "runs_a", "runs_b", "disagree",
 _READ = {"metrics": ("condition_id", "physics", "runs", "failed", "missing", "final_ubar_std", *COMPARED),
          "runs": ("condition_id", "experiments")}
 """the columns ``compare`` reads of each table of a results directory."""
-_NOT_CONDITION = {"condition_id", "physics", "shape_id", "environment_id"}
+_NOT_CONDITION = {"condition_id", "physics", "backend", "shape_id", "environment_id"}
 _LABEL_COLUMNS = ("experiments", "shape", "learner", "step_size", "noise", "environment", "events", "steps")
 
 
