@@ -103,7 +103,9 @@ def test_one_h264_video_per_experiment_in_the_page_and_in_videos(page):
             assert stream.codec_context.name == "h264" and stream.codec_context.pix_fmt == "yuv420p"
             assert (stream.codec_context.width, stream.codec_context.height) == (480, 270)
             duration = float(stream.duration * stream.time_base)
-        steps = pd.read_parquet(out / "runs" / chosen[experiment["name"]]["id"] / "steps.parquet")
+        run_id = chosen[experiment["name"]]["id"]  # its rows: in the consolidated table (docs/results.md)
+        steps = pd.read_parquet(out / "steps.parquet")
+        steps = steps[steps.run_id == run_id].reset_index(drop=True)
         (first_step, last), simulated = steps_to_show(steps)
         assert 8 <= simulated <= 20 and duration == pytest.approx(simulated, abs=0.2)  # speed 1: real time
         assert f'src="data:video/mp4;base64,{base64.b64encode(video.read_bytes()).decode()}"' in text

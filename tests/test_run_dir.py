@@ -153,7 +153,7 @@ def test_a_killed_overwrite_leaves_the_old_run_or_the_new_one(tmp_path: Path, ca
 def test_ctrl_c_before_a_run_starts_is_one_line(tmp_path: Path, capsys, monkeypatch):
     import morphbench.experiment
 
-    def interrupted(path):
+    def interrupted(path, **options):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(morphbench.experiment, "load_run_config", interrupted)  # Ctrl-C while the file is read

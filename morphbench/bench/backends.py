@@ -3,9 +3,8 @@ and on the quasi-static model), condition by condition: what each backend gives 
 
 ``compare(a, b)`` reads both directories' ``metrics.parquet`` (written by ``morphbench report``) and pairs the
 conditions that are equal in every condition column but ``physics``, the ``backend`` it resolved to and the ids that
-hash them. Per pair and per
-compared metric (final Ubar, U_eq where the fit has a plateau, steps to 0.8 U_eq, mean acceptance) it gives both
-values and the difference b - a.
+hash them. Per pair and per compared metric (final Ubar, U_eq where the fit has a plateau, steps to 0.8 U_eq, mean
+acceptance) it gives both values and the difference b - a.
 Final Ubar has a standard error over seeds in each directory; the pair **disagrees** when the difference exceeds
 ``DISAGREE_SE`` combined standard errors, sqrt(std_a^2 / n_a + std_b^2 / n_b), so a difference that seed noise explains
 is not called one. ``morphbench report DIR --compare A B`` keeps the table as ``DIR/backends.parquet``, and the
