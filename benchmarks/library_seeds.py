@@ -48,7 +48,7 @@ def one_run(job: tuple[str, int, int]) -> dict:
         run(RunConfig(shape=load_shape(path), seed=seed, steps=steps, sensor=SensorParams(kind="ideal")))
         error = ""
     except Exception as exc:  # noqa: BLE001 - every failure is what this benchmark counts
-        error = describe(exc)
+        error = describe(exc).replace(f"{ROOT}/", "")  # paths as the repository names them
     return {"shape": Path(path).stem, "seed": seed, "error": error, "wall": time.perf_counter() - started}
 
 
