@@ -569,7 +569,9 @@ def _paired(value: Callable[[dict, pd.Series], float]):
 
 
 def _spearman(levels: np.ndarray, values: np.ndarray) -> float:
-    return float(pd.Series(levels).corr(pd.Series(values), method="spearman"))
+    """Spearman's rank correlation: Pearson's of the ranks (ties averaged), which is what pandas' 'spearman' computes
+    through SciPy, a package morphbench does not need otherwise."""
+    return float(pd.Series(levels).rank().corr(pd.Series(values).rank()))
 
 
 def _largest_two(levels: np.ndarray, values: np.ndarray) -> float:
