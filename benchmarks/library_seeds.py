@@ -21,7 +21,7 @@ from morphbench.experiment import RunConfig, run
 from morphbench.failures import describe
 from morphbench.files import write_text
 from morphbench.params import DEFAULT_PHYSICS, SensorParams
-from morphbench.physics import make_world
+from morphbench.physics import resolve_backend
 from morphbench.shapes import load_shape
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -53,9 +53,8 @@ def one_run(job: tuple[str, int, int]) -> dict:
 
 
 def backend_of(path: Path) -> str:
-    """The world class the default physics builds for the shape at ``path``."""
-    with make_world(load_shape(path), DEFAULT_PHYSICS) as world:
-        return type(world).__name__
+    """The backend the default physics resolves to for the shape at ``path`` (decided without building a world)."""
+    return resolve_backend(load_shape(path), DEFAULT_PHYSICS)
 
 
 def table(results: list[dict], backends: dict[str, str], seeds: list[int], steps: int, wall: float) -> str:
