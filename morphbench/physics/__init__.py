@@ -65,29 +65,30 @@ def resolve_backend(shape, physics: PhysicsParams, environment: EnvironmentParam
     if physics.backend == "pybullet" or (physics.backend == "auto" and scene):
         return World.backend
     try:
-        chain_axis(shape)
-        backend = QuasiStaticWorld.backend
+        backend = _quasistatic_backend(shape)
     except ConfigError:
-        try:
-            check_one_layer(shape)
-        except ConfigError:
-            if physics.backend == "quasistatic":
-                raise
-            return World.backend  # auto: a stack
-        backend = PlanarWorld.backend
+        if physics.backend == "quasistatic":
+            raise
+        return World.backend  # auto: a stack
     check_quasistatic_friction(shape, environment, shape.source)
     return backend
 
 
-def quasistatic_world(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
-    """The quasi-static model of ``shape``, whatever its friction: along its axis for a chain, in the plane for any
-    other one-layer shape; a ConfigError for a stack (benchmarks/fidelity.py compares it with PyBullet)."""
+def _quasistatic_backend(shape) -> str:
+    """The quasi-static model that solves ``shape``: along its axis for a chain, in the plane for any other one-layer
+    shape; a ConfigError for a stack."""
     try:
         chain_axis(shape)
     except ConfigError:
         check_one_layer(shape)
-        return PlanarWorld(shape, physics, environment)
-    return QuasiStaticWorld(shape, physics, environment)
+        return PlanarWorld.backend
+    return QuasiStaticWorld.backend
+
+
+def quasistatic_world(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
+    """The quasi-static model of ``shape``, whatever its friction (``_quasistatic_backend``; benchmarks/fidelity.py
+    compares it with PyBullet)."""
+    return BACKENDS[_quasistatic_backend(shape)](shape, physics, environment)
 
 
 BACKENDS = {World.backend: World, QuasiStaticWorld.backend: QuasiStaticWorld, PlanarWorld.backend: PlanarWorld}
