@@ -369,14 +369,18 @@ def test_the_lock_nests_in_one_process_and_is_refused_to_another_open_file(tmp_p
         pass
 
 
+ONE_RUN = f"""
+    [[experiment]]
+    name = "one"
+    shape = "{CHAIN2}"
+    seeds = 1
+    steps = 1
+"""
+"""a suite of one chain-2 run of one step."""
+
+
 def test_temporaries_of_ended_processes_are_cleaned_and_those_of_running_ones_kept(tmp_path):
-    suite = load_suite(write_suite(tmp_path, f"""
-        [[experiment]]
-        name = "one"
-        shape = "{CHAIN2}"
-        seeds = 1
-        steps = 1
-    """))
+    suite = load_suite(write_suite(tmp_path, ONE_RUN))
     out = tmp_path / "out"
     run_suite(suite, out, LocalExecutor(1), progress=False)
     alive = subprocess.Popen([sys.executable, "-c", "import sys; sys.stdin.read()"], stdin=subprocess.PIPE)
@@ -401,13 +405,7 @@ def test_temporaries_of_ended_processes_are_cleaned_and_those_of_running_ones_ke
 
 def test_a_directory_refused_gets_no_lock_file(tmp_path):
     (tmp_path / "notes.txt").write_text("someone's files")
-    suite = load_suite(write_suite(tmp_path, f"""
-        [[experiment]]
-        name = "one"
-        shape = "{CHAIN2}"
-        seeds = 1
-        steps = 1
-    """, "one.toml"))
+    suite = load_suite(write_suite(tmp_path, ONE_RUN, "one.toml"))
     with pytest.raises(ConfigError, match="a new or empty directory"):
         run_suite(suite, tmp_path, LocalExecutor(1), progress=False)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt", "one.toml"]
