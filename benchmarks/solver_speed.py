@@ -41,7 +41,7 @@ def solve(world, extension, limits, guess_from: int) -> tuple[float, np.ndarray]
     s = np.zeros(n)
     started = time.process_time()
     Q._solve_ticks(s, extension, limits, world._order, world._starts, world._pair_link, world._pair_sign,
-                   actuator.stiffness, actuator.max_force, np.full(len(extension), -1, dtype=np.int64),
+                   world.link_stiffness, actuator.max_force, np.full(len(extension), -1, dtype=np.int64),
                    np.empty((0, n)), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64), guess_from, 0, 0,
                    np.zeros((0, 4)), np.zeros(3), np.ones(n), np.zeros((n, 2)), np.zeros(2))
     return time.process_time() - started, s

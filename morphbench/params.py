@@ -100,10 +100,15 @@ inertia")."""
 
 SensorKind = Literal["optical", "camera", "ideal"]
 SENSOR_KINDS: tuple[str, ...] = get_args(SensorKind)
-DamageMode = Literal["no-inflate", "stuck", "dead"]
+DamageMode = Literal["no-inflate", "open", "stuck", "dead"]
 DAMAGE_MODES: tuple[str, ...] = get_args(DamageMode)
-"""no-inflate: the needle is gone, the bellows cannot extend but pump, vibration and learner go on; stuck: the
-bellows keeps its length; dead: the unit stops everything (pump, vibration, learner)."""
+"""no-inflate: the bellows cannot extend but pump, vibration and learner go on, and it stays as stiff as a bellows
+holding air; open: the needle is gone (the paper's damage), so the bellows, open to the air, cannot extend and
+resists with its wall only (``ActuatorParams.open_stiffness``); stuck: the bellows keeps its length; dead: the unit
+stops everything (pump, vibration, learner)."""
+FrictionTarget = Literal["all", "active", "passive"]
+FRICTION_TARGETS: tuple[str, ...] = get_args(FrictionTarget)
+"""the bodies a friction event changes: every body, the active units', or the passive ones' (the dummy's)."""
 InitialMemory = Literal["measure", "-inf", "zero"]
 INITIAL_MEMORY_CHOICES: tuple[str, ...] = get_args(InitialMemory)
 PhysicsBackend = Literal["auto", "pybullet", "quasistatic"]
@@ -161,6 +166,10 @@ class ActuatorParams:
     stiffness: float = param(300.0, between(1e-3, 1e10), "N/m")
     """N/m, axial stiffness of the bellows (up to 1e10: the quasi-static model takes a rigid link; PyBullet's
     explicit springs need a finer timestep above a few hundred)."""
+    open_stiffness: float = param(30.0, between(1e-3, 1e10), "N/m")
+    """N/m, axial stiffness of a bellows open to the air (damage 'open': the paper's removed needle). It holds no
+    air, so it cannot inflate and only its elastomer wall resists being pushed or pulled; ``stiffness`` is that of
+    a bellows holding air behind its needle."""
     damping: float = param(2.0, between(1e-6, 1e3), "N s/m")
     """N s/m, axial damping of the bellows."""
     max_force: float = param(5.0, between(1e-3, 1e3), "N")
@@ -207,7 +216,7 @@ class PhysicsParams:
     """constraint solver iterations per physics step (pybullet only)."""
     substeps: int = param(1, between(1, 100, integer=True))
     """PyBullet steps (and link-force updates) per tick (pybullet only): the links' springs are explicit, so stiffer
-    links than the default, or stacks of three layers or more, need 2 or more."""
+    links than the default, and stacks, need 2 or more ('auto' gives a stack ``physics.STACK_SUBSTEPS``)."""
     settle_time: float = param(0.25, between(0, 60, low_inclusive=False), "s")
     """s, simulated before the first cycle so the units rest on the ground (pybullet only)."""
     cone_friction: bool = param(True, BOOL)
@@ -219,7 +228,8 @@ class PhysicsParams:
 
 
 DEFAULT_PHYSICS = PhysicsParams()
-"""The default: the quasi-static model for shapes on the ground, the PyBullet world at the fast setting for stacks."""
+"""The default: the quasi-static model for shapes on the ground, the PyBullet world at the fast setting for stacks
+(with ``physics.STACK_SUBSTEPS`` steps per tick)."""
 
 FAST_PHYSICS = PhysicsParams(backend="pybullet")
 """PyBullet at a step the speed targets allow (docs/fidelity.md measures how far it is from converged)."""

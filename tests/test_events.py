@@ -1,7 +1,6 @@
 """Events as objects: parsed from their tables, written back as the same tables, applied to a world and the run
 state."""
 
-import dataclasses
 
 import numpy as np
 import pytest
@@ -14,6 +13,7 @@ from morphbench.shapes.transforms import shuffle_order
 
 TABLES = [
     ({"step": 1, "kind": "friction", "scale": 0.5}, "friction scale=0.5"),
+    ({"step": 1, "kind": "friction", "scale": 0.5, "bodies": "passive"}, "friction scale=0.5 bodies=passive"),
     ({"step": 2, "kind": "damage", "unit": 2, "mode": "no-inflate"}, "damage unit=2 mode=no-inflate"),
     ({"step": 3, "kind": "shuffle", "seed": 7}, "shuffle seed=7"),
     ({"step": 4, "kind": "cut", "link": 1}, "cut link=1"),
@@ -25,8 +25,9 @@ def test_each_kind_parses_to_its_class_and_back_to_its_table():
     events = parse_events([table for table, _ in TABLES], "x.toml", 3, 3)
     for event, (table, text) in zip(events, TABLES):
         assert type(event) is EVENT_KINDS[table["kind"]] and event.kind == table["kind"]
-        # asdict is what summary.json and suite run ids keep of an event: the table's keys in its order
-        assert list(dataclasses.asdict(event).items()) == list(table.items())
+        # settings() is what summary.json and suite run ids keep of an event: the table's keys in its order (an
+        # optional field left at its default is left out, so events written before it keep their ids)
+        assert list(event.settings().items()) == list(table.items())
         assert event.describe() == text
 
 
@@ -41,6 +42,12 @@ def test_a_bad_event_in_a_summary_names_the_summary():
     data["events"] = [{"step": 1, "kind": "noise", "sigma": -1.0}]
     with pytest.raises(ConfigError, match=r"run/summary.json.*events\[0\]\.sigma"):
         RunConfig.from_dict(data, source="run/summary.json")
+
+
+@pytest.mark.parametrize("bodies", ["dummy", 1, ["passive"]])
+def test_a_friction_event_names_its_bodies_from_a_fixed_list(bodies):
+    with pytest.raises(ConfigError, match=r"x.toml.*events\[0\]\.bodies.*all.*active.*passive"):
+        parse_events([{"step": 1, "kind": "friction", "scale": 0.5, "bodies": bodies}], "x.toml", 3, 3)
 
 
 class FakeWorld:

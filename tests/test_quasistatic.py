@@ -243,7 +243,7 @@ def solve(s, extension, limits, order, starts, pair_link, pair_sign, k, cap, gue
 def test_guessed_patterns_give_the_programmes_minimiser(seed):
     """Ticks settled by a guessed pattern (the active set, tried on pieces of any size) end where the dynamic
     programme alone ends, to rounding, on random pieces, extensions, friction (some bodies without any), stiffness
-    and force caps."""
+    (equal, or each link its own) and force caps."""
     rng = np.random.default_rng(seed)
     n = int(rng.integers(1, 25))
     cuts = sorted(set(rng.integers(1, n, size=int(rng.integers(0, 3))))) if n > 1 else []
@@ -259,6 +259,7 @@ def test_guessed_patterns_give_the_programmes_minimiser(seed):
     if seed % 4 == 0:
         limits[:, rng.integers(0, n)] = 0.0
     k, cap = float(rng.choice([30.0, 300.0, 1e7])), float(rng.choice([0.05, 0.5, 5.0, 1e9]))
+    k = k * (rng.uniform(0.03, 1.0, n) if seed % 2 else np.ones(n))  # each link its own stiffness (an open bellows)
     start = rng.normal(0, 0.01, n)
     expected, got = start.copy(), start.copy()
     solve(expected, extension, limits, order, starts, pair_link, pair_sign, k, cap, guess_from=n + 1)

@@ -8,7 +8,7 @@ import pytest
 
 from morphbench.errors import PluginError
 from morphbench.experiment import RunConfig, run
-from morphbench.params import FAST_PHYSICS, EnvironmentParams, LearnerParams, SensorParams
+from morphbench.params import DEFAULT_PHYSICS, FAST_PHYSICS, EnvironmentParams, LearnerParams, SensorParams
 from morphbench.shapes import load_shape
 
 from conftest import SHAPES_DIR
@@ -170,3 +170,17 @@ def test_the_backend_auto_chose_is_recorded():
     assert run(chain).summary()["backend"] == "quasistatic"
     assert run(grid).summary()["backend"] == "planar"
     assert run(dataclasses.replace(chain, physics=FAST_PHYSICS)).summary()["backend"] == "pybullet"
+
+
+def test_auto_gives_a_stack_the_substeps_its_springs_need():
+    """A stack on 'auto' runs PyBullet with physics.STACK_SUBSTEPS steps per tick; a backend named explicitly keeps
+    the settings it is given, and shapes on the ground are not touched."""
+    from morphbench.physics import STACK_SUBSTEPS, make_world
+
+    stack, chain = load_shape(SHAPES_DIR / "stack-2x2x2.toml"), load_shape(SHAPES_DIR / "chain-2.toml")
+    with make_world(stack, DEFAULT_PHYSICS) as world:
+        assert world.backend == "pybullet" and world.physics.substeps == STACK_SUBSTEPS >= 2
+    with make_world(stack, FAST_PHYSICS) as world:
+        assert world.physics.substeps == FAST_PHYSICS.substeps == 1
+    with make_world(chain, DEFAULT_PHYSICS) as world:
+        assert world.physics == DEFAULT_PHYSICS

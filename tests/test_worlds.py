@@ -29,20 +29,22 @@ TICKS = 60
 PHASES = (0.0, 0.3, 0.6, 0.9)
 
 
-def batch_of(name: str):
+def batch_of(name: str, **actuator):
     """A fresh batch holding the world ``name`` tests (its last copy for a batch of several: every other copy moves
-    with it)."""
-    shape, physics, copies, _ = WORLDS[name]
-    return make_world(load_shape(SHAPES_DIR / f"{shape}.toml"), physics, copies=copies)
+    with it), its shape's actuator changed by ``actuator``."""
+    shape_name, physics, copies, _ = WORLDS[name]
+    shape = load_shape(SHAPES_DIR / f"{shape_name}.toml")
+    shape = dataclasses.replace(shape, actuator=dataclasses.replace(shape.actuator, **actuator))
+    return make_world(shape, physics, copies=copies)
 
 
 def phases(world) -> np.ndarray:
     return np.array(PHASES[:world.shape.n_units])
 
 
-def moved(name: str, action=None, ticks: int = TICKS) -> tuple[np.ndarray, np.ndarray, WorldInterface]:
+def moved(name: str, action=None, ticks: int = TICKS, **actuator) -> tuple[np.ndarray, np.ndarray, WorldInterface]:
     """Every body's poses after ``ticks`` ticks at PHASES, ``action(world)`` done first; and the world (closed)."""
-    with batch_of(name) as batch:
+    with batch_of(name, **actuator) as batch:
         world = batch.worlds[-1]
         world.set_phases(phases(world))
         if action is not None:
@@ -116,6 +118,36 @@ def test_every_event_kind_acts_on_every_world(name):
         if kind == "cut":
             links = [(link.front, link.rear) for j, link in enumerate(world.shape.links) if j != event.link - 1]
             assert world.pieces() == connected_groups(len(world.shape.bodies), links)
+
+
+@pytest.mark.parametrize("name", WORLDS)
+def test_an_open_bellows_is_a_no_inflate_one_as_soft_as_its_wall(name):
+    """Damage 'open' (the paper's removed needle): with the wall as stiff as a bellows holding air it moves exactly
+    as 'no-inflate' does; a softer wall changes the motion, and only through the damaged unit's own links."""
+    cycle = round(2 * 2.0 / WORLDS[name][1].timestep)  # two pump cycles: every unit pumps
+    stiff = moved(name, lambda w: w.set_damage(0, "no-inflate"), cycle, open_stiffness=1.0)[0]
+    for wall in (30.0, 300.0):
+        positions, _, world = moved(name, lambda w: w.set_damage(0, "open"), cycle, open_stiffness=wall)
+        driven = world.link_units == 0
+        assert np.all(world.link_stiffness[driven] == wall) and np.all(world.link_stiffness[~driven] == 300.0)
+        assert np.array_equal(positions, stiff) == (wall == world.shape.actuator.stiffness), wall
+
+
+@pytest.mark.parametrize("name", WORLDS)
+def test_a_friction_event_scales_the_bodies_it_names(name):
+    """bodies = 'all' scales every body ('all' is the default), 'active' the units' and 'passive' the others': a
+    scale of 1 on either part changes nothing, and the two parts together are 'all'."""
+    def scaled(*targets):
+        def act(world):
+            for scale, bodies in targets:
+                world.set_friction_scale(scale, bodies)
+        return act
+
+    cycle = round(2 * 2.0 / WORLDS[name][1].timestep)  # two pump cycles: the dummy moves too
+    healthy, everything = moved(name, None, cycle)[0], moved(name, scaled((0.6, "all")), cycle)[0]
+    assert np.array_equal(moved(name, scaled((1.0, "passive")), cycle)[0], healthy)
+    assert np.array_equal(moved(name, scaled((0.6, "active"), (0.6, "passive")), cycle)[0], everything)
+    assert not np.array_equal(moved(name, scaled((0.5, "passive")), cycle)[0], healthy)
 
 
 @pytest.mark.parametrize("name", WORLDS)

@@ -46,7 +46,7 @@ def config_identity(config, preset: str) -> dict:
         value = getattr(config, f.name)
         data[f.name] = dataclasses.asdict(value) if dataclasses.is_dataclass(value) else value
     data["shape"] = shape_identity(config.shape)
-    data["events"] = [dataclasses.asdict(e) for e in config.events]  # each its kind, step and own fields
+    data["events"] = [e.settings() for e in config.events]  # each its kind, step and own fields
     data["noise"] = config.environment.noise
     data["physics_preset"] = preset
     return data

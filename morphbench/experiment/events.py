@@ -2,8 +2,8 @@
 
 | kind | fields | effect |
 |---|---|---|
-| friction | scale | every body's friction is its own times ``scale`` from now on (a friction drop: scale < 1) |
-| damage | unit, mode | unit ``unit`` (1 = front) is damaged: 'no-inflate', 'stuck' or 'dead' (params.DAMAGE_MODES) |
+| friction | scale, bodies | friction times ``scale`` from now on (a drop: < 1) of `all`, `active` or `passive` bodies |
+| damage | unit, mode | unit ``unit`` (1 = front) is damaged: a mode of params.DAMAGE_MODES ('open': needle gone) |
 | shuffle | seed | the units are reordered by a seeded permutation; each keeps its learner, memory, noise and damage |
 | cut | link | link ``link`` (1-based, see below) is cut; each piece is scored on its own |
 | noise | sigma | measurement noise becomes ``sigma`` mm/cycle |
@@ -27,8 +27,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from morphbench.errors import ConfigError, PhysicsError, require_integer
-from morphbench.params import DAMAGE_MODES, SEED, EnvironmentParams
-from morphbench.rules import check, check_rule
+from morphbench.params import DAMAGE_MODES, FRICTION_TARGETS, SEED, EnvironmentParams
+from morphbench.rules import Choices, check, check_rule
 from morphbench.shapes.transforms import shuffle_order
 
 if TYPE_CHECKING:  # configs and suites parse events without loading the simulator
@@ -88,9 +88,23 @@ class Event(ABC):
         """The kind's own fields, in the order ``describe`` lists them."""
         return tuple(f.name for f in dataclasses.fields(cls) if f.name not in ("step", "kind"))
 
+    @classmethod
+    def optional_fields(cls) -> tuple[str, ...]:
+        """The kind's fields a table may leave out (they have a default)."""
+        return tuple(f.name for f in dataclasses.fields(cls)
+                     if f.name not in ("step", "kind") and f.default is not dataclasses.MISSING)
+
+    def settings(self) -> dict[str, Any]:
+        """step, kind and the kind's fields, less those left at their default: what identifies the event (an
+        optional field added later leaves the events written before it as they were)."""
+        defaults = {f.name: f.default for f in dataclasses.fields(self) if f.name in self.optional_fields()}
+        return {name: value for name, value in dataclasses.asdict(self).items()
+                if name not in defaults or value != defaults[name]}
+
     def describe(self) -> str:
         """Short text for the records, e.g. 'damage unit=2 mode=no-inflate'."""
-        return " ".join([self.kind] + [f"{name}={getattr(self, name)}" for name in self.kind_fields()])
+        settings = self.settings()
+        return " ".join([self.kind] + [f"{name}={settings[name]}" for name in self.kind_fields() if name in settings])
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -98,14 +112,18 @@ class FrictionEvent(Event):
     kind: str = field(default="friction", init=False)
     scale: float
     """new friction scale (EnvironmentParams.friction_scale's range)."""
+    bodies: str = "all"
+    """the bodies whose friction it scales (params.FRICTION_TARGETS): the others keep theirs."""
 
     @classmethod
     def parse(cls, item, source, where, n_units, n_links):
-        return {"scale": check(EnvironmentParams, "friction_scale", item["scale"], source, f"{where}.scale")}
+        return {"scale": check(EnvironmentParams, "friction_scale", item["scale"], source, f"{where}.scale"),
+                "bodies": check_rule(Choices(FRICTION_TARGETS), "", item.get("bodies", "all"), source,
+                                     f"{where}.bodies")}
 
     def apply(self, world, state):
         try:
-            world.set_friction_scale(self.scale)
+            world.set_friction_scale(self.scale, self.bodies)
         except ConfigError as exc:  # a quasi-static world refuses friction below its model's range
             raise PhysicsError(exc.source, self.step, f"a friction event (scale {self.scale:g})",
                                f"takes friction outside the quasi-static model's range: expected {exc.expected}") \
@@ -206,7 +224,7 @@ def parse_event(item: Any, source: str, where: str, n_units: int, n_links: int, 
         if key not in allowed:
             raise ConfigError(source, f"{where}.{key}",
                               f"one of the keys of a {kind} event: {', '.join(sorted(allowed))}")
-    for key in allowed:
+    for key in allowed - set(cls.optional_fields()):
         if key not in item:
             raise ConfigError(source, f"{where}.{key}",
                               f"a value (a {kind} event needs {', '.join(sorted(allowed))})")

@@ -73,7 +73,7 @@ class RunConfig:
                          "n_units": self.shape.n_units, "id": shape_id(self.shape)}  # checked at replay
         for key in ("learner_params", "sensor", "environment", "physics"):
             data[key] = dataclasses.asdict(data[key])
-        data["events"] = [dataclasses.asdict(e) for e in self.events]  # each its kind, step and own fields
+        data["events"] = [e.settings() for e in self.events]  # each its kind, step and own fields
         return data
 
     @classmethod

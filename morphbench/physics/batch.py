@@ -92,6 +92,10 @@ class Copy:
         return self.world.pressure[self._links:self._links + len(self.shape.links)]
 
     @property
+    def link_stiffness(self) -> np.ndarray:
+        return self.world.link_stiffness[self._links:self._links + len(self.shape.links)]
+
+    @property
     def damage(self) -> list[str]:
         return self.world.damage[self._units:self._units + self.shape.n_units]
 
@@ -125,8 +129,8 @@ class Copy:
     def set_damage(self, unit: int, mode: str) -> None:
         self.world.set_damage(self._units + unit, mode)
 
-    def set_friction_scale(self, scale: float) -> None:
-        self.world.set_friction_scale(scale)  # every copy's runs change it alike: their events are the same
+    def set_friction_scale(self, scale: float, bodies: str = "all") -> None:
+        self.world.set_friction_scale(scale, bodies)  # every copy's runs change it alike: their events are the same
 
     def cut(self, link: int) -> None:
         self.world.cut(self._links + link)

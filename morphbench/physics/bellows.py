@@ -60,10 +60,13 @@ class Bellows:
         """current phase (0..1) of each active unit's pump."""
         self.damage = ["" for _ in shape.units]
         """per active unit (unit order): '' (healthy) or a mode of DAMAGE_MODES."""
+        self.link_stiffness = np.full(len(shape.links), shape.actuator.stiffness)
+        """N/m, each link's axial stiffness (a bellows open to the air: ``ActuatorParams.open_stiffness``)."""
         self._stuck_length = np.full(len(shape.links), np.nan)
         self._any_stuck = False
         self._extends = self._extending()
-        self._friction_scale = environment.friction_scale
+        self._friction_scale = np.full(len(shape.bodies), environment.friction_scale)
+        """each body's friction scale: the environment's, until a friction event changes it."""
         self._field = FrictionField(environment.friction_field) if environment.friction_field.amplitude > 0 else None
         self._field_modes = NO_FIELD if self._field is None else self._field.compiled()
         self._base_friction = np.array([body.friction for body in shape.bodies])
@@ -99,9 +102,10 @@ class Bellows:
         return rest
 
     def _extending(self) -> np.ndarray:
-        """1.0 for each link whose bellows can inflate (driven by a unit not damaged 'no-inflate' or 'dead'), else
-        0.0."""
-        return np.array([u >= 0 and self.damage[u] not in ("no-inflate", "dead") for u in self.link_units], dtype=float)
+        """1.0 for each link whose bellows can inflate (driven by a unit not damaged 'no-inflate', 'open' or
+        'dead'), else 0.0."""
+        return np.array([u >= 0 and self.damage[u] not in ("no-inflate", "open", "dead") for u in self.link_units],
+                        dtype=float)
 
     def _pumping(self, start: float, n_ticks: int) -> np.ndarray:
         """(n_ticks, n_units) whether each unit's pump runs at the start of each coming tick (a dead one never)."""
@@ -112,7 +116,9 @@ class Bellows:
 
     def set_damage(self, unit: int, mode: str) -> None:
         """Damage the active unit at ``unit`` (unit order, 0-based): 'no-inflate' (its bellows cannot extend; pump and
-        vibration go on), 'stuck' (its bellows keeps its current length), 'dead' (no pump, no vibration); '' heals."""
+        vibration go on), 'open' (no-inflate, and the bellows, open to the air, resists with its wall's
+        ``open_stiffness`` only), 'stuck' (its bellows keeps its current length), 'dead' (no pump, no vibration); ''
+        heals."""
         if mode not in ("",) + DAMAGE_MODES:
             raise ValueError(f"damage mode must be '' (healthy) or one of {DAMAGE_MODES}, got {mode!r}")
         if self.damage[unit] == mode:
@@ -120,13 +126,25 @@ class Bellows:
         self.damage[unit] = mode
         self._extends = self._extending()
         driven = self.link_units == unit
+        actuator = self.shape.actuator
+        self.link_stiffness[driven] = actuator.open_stiffness if mode == "open" else actuator.stiffness
         self._stuck_length[driven] = (self._empty_pitch + self._strokes * self.pressure)[driven] \
             if mode == "stuck" else np.nan
         self._any_stuck = bool(np.isfinite(self._stuck_length).any())
 
-    def set_friction_scale(self, scale: float) -> None:
-        """Multiply every body's friction by ``scale`` from now on (instead of the environment's scale)."""
-        self._friction_scale = scale
+    def set_friction_scale(self, scale: float, bodies: str = "all") -> None:
+        """Multiply the friction of ``bodies`` (params.FRICTION_TARGETS) by ``scale`` from now on (instead of the
+        environment's scale)."""
+        self._friction_scale[self._targets(bodies)] = scale
+
+    def _targets(self, bodies: str) -> np.ndarray:
+        """Per body: whether it is among ``bodies`` ('all', 'active' units or 'passive' ones)."""
+        active = np.zeros(len(self._friction_scale), dtype=bool)
+        active[self._unit_bodies] = True
+        targets = {"all": np.ones_like(active), "active": active, "passive": ~active}
+        if bodies not in targets:
+            raise ValueError(f"friction targets must be one of {tuple(targets)}, got {bodies!r}")
+        return targets[bodies]
 
     def cut(self, link: int) -> None:
         """Cut link ``link`` (index into shape.links): its springs are gone; the pieces move apart freely."""
@@ -196,11 +214,11 @@ class QuasiStatic(Bellows):
         super().__init__(shape, environment)
         self._factor = np.ones(len(shape.bodies))
 
-    def set_friction_scale(self, scale: float) -> None:
+    def set_friction_scale(self, scale: float, bodies: str = "all") -> None:
         """As for every world; a ConfigError if ``scale`` takes friction below the model's range (and nothing
-        changes)."""
+        changes; checked as if every body took it, which is the lower bound)."""
         check_quasistatic_friction(self.shape, self.environment, self.shape.source, scale)
-        super().set_friction_scale(scale)
+        super().set_friction_scale(scale, bodies)
 
     def relax_ticks(self, lengths, limits, record=None, states=None, first_tick: int | None = None) -> None:
         """Solve one tick per row: ``lengths`` (n_ticks, n_links) each link's rest length (m), ``limits``

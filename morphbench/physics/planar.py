@@ -80,8 +80,6 @@ class PlanarWorld(QuasiStatic):
         self._last = np.zeros_like(self.q)
         """the previous tick's increments: where the next solve starts from."""
         self._rho = np.array([friction_radius(body.size[0], body.size[1]) for body in shape.bodies])
-        actuator = shape.actuator
-        self._stiffness = np.array([actuator.stiffness, actuator.shear_stiffness, actuator.bending_stiffness])
         self.newton_steps = 0
         """Newton steps taken so far (a measure of the solver's work)."""
         self.unconverged_ticks = 0
@@ -93,9 +91,17 @@ class PlanarWorld(QuasiStatic):
     def state(self) -> np.ndarray:
         return self.q
 
+    def _springs(self) -> np.ndarray:
+        """(n_links, 3): each link's axial (N/m), shear (N/m) and bending (N m/rad) stiffness."""
+        actuator = self.shape.actuator
+        springs = np.empty((len(self.link_stiffness), 3))
+        springs[:, 0] = self.link_stiffness
+        springs[:, 1], springs[:, 2] = actuator.shear_stiffness, actuator.bending_stiffness
+        return springs
+
     def _solve(self, lengths, limits, record, states, first_tick, field_every, modes, constants) -> None:
         total, failed = _solve_ticks(self.q, self._last, lengths, limits, self._front, self._rear, self._plane_axes,
-                                     self.intact, self._stiffness, self.shape.actuator.max_force, self._rho, record,
+                                     self.intact, self._springs(), self.shape.actuator.max_force, self._rho, record,
                                      states, first_tick, field_every, modes, constants, self._factor)
         self.newton_steps += total
         self.unconverged_ticks += failed
@@ -141,7 +147,7 @@ def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, 
             z = strain[m]
             for j in range(6):
                 z += jac[m, j] * u[index[j]]
-            k = stiffness[m]
+            k = stiffness[link, m]
             if m == 0 and abs(k * z) > cap:  # the bellows gives way at its force cap: linear energy, no stiffness
                 force = cap if z > 0 else -cap
                 curvature = 0.0

@@ -44,6 +44,8 @@ class WorldInterface(Protocol):
     """per link, its bellows' pressure (0..1) now."""
     damage: list[str]
     """per unit (unit order), '' or its damage mode."""
+    link_stiffness: np.ndarray
+    """N/m, per link, its bellows' axial stiffness now (an open one's is its wall's)."""
 
     @property
     def scene(self) -> Scene | None:
@@ -75,8 +77,9 @@ class WorldInterface(Protocol):
     def set_damage(self, unit: int, mode: str) -> None:
         """Damage the unit at ``unit`` (unit order): '' heals, else a mode of params.DAMAGE_MODES."""
 
-    def set_friction_scale(self, scale: float) -> None:
-        """Every body's friction times ``scale`` from now on (a ConfigError if the model cannot take it)."""
+    def set_friction_scale(self, scale: float, bodies: str = "all") -> None:
+        """The friction of ``bodies`` (params.FRICTION_TARGETS) times ``scale`` from now on (a ConfigError if the
+        model cannot take it)."""
 
     def cut(self, link: int) -> None:
         """Cut link ``link`` (index into shape.links)."""

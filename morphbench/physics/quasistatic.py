@@ -121,7 +121,7 @@ class QuasiStaticWorld(QuasiStatic):
     def _solve(self, lengths, limits, record, states, first_tick, field_every, modes, constants) -> None:
         actuator = self.shape.actuator
         _solve_ticks(self.s, lengths - self._empty_pitch, limits, self._order, self._starts, self._pair_link,
-                     self._pair_sign, actuator.stiffness, actuator.max_force, record, states, self._sliding,
+                     self._pair_sign, self.link_stiffness, actuator.max_force, record, states, self._sliding,
                      self._capped, PATTERN_MIN_BODIES, first_tick, field_every, modes, constants, self._factor,
                      self._rest_xy, self._axis_xy)
 
@@ -172,7 +172,8 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, stif
     offsets = np.empty(n)
     d = np.empty(n)
     work = np.empty((5, n))
-    inverse_k = 1.0 / stiffness
+    ks = np.empty(n)  # each spring's stiffness along the path, and its inverse
+    inverse_k = np.empty(n)
     n_bodies = len(s)
     at_x, at_y = np.empty(n_bodies), np.empty(n_bodies)  # the bodies' places where the field is read
     w = np.empty(n_bodies)
@@ -191,7 +192,10 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, stif
                 offsets[i] = (pair_sign[a + i] * extension[t, pair_link[a + i]]
                               - (s[order[a + i]] - s[order[a + i + 1]]))
             guess = m >= guess_from
-            solved = guess and _try_pattern(a, m, order, w, offsets, stiffness, cap, sigma, capped, d, work)
+            for i in range(m - 1):
+                ks[i] = stiffness[pair_link[a + i]]
+                inverse_k[i] = 1.0 / ks[i]
+            solved = guess and _try_pattern(a, m, order, w, offsets, ks, cap, sigma, capped, d, work)
             if not solved:  # the dynamic programme: exact, O(n^2) for n bodies (two passes over the breakpoints each)
                 # Forward: F_0 = w_0 |x|; F_{i+1}(y) = min_x F_i(x) + H(x - y - c_i) + w_{i+1} |y|.
                 for i in range(m):
@@ -248,17 +252,17 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, stif
                             if q + 1 < cnt and ss[i, q + 1] > -cap:  # the crossing of -cap
                                 f = (-cap - v) / (ss[i, q + 1] - v)
                                 x = x + f * (xs[i, q + 1] - x)
-                                cx[i, k], cs[i, k], cu[i, k] = x, -cap, x - c + -cap * inverse_k
+                                cx[i, k], cs[i, k], cu[i, k] = x, -cap, x - c + -cap * inverse_k[i]
                                 k += 1
                             continue
                         if v > cap:
                             if q > 0 and ss[i, q - 1] < cap:
                                 f = (cap - ss[i, q - 1]) / (v - ss[i, q - 1])
                                 x = xs[i, q - 1] + f * (x - xs[i, q - 1])
-                                cx[i, k], cs[i, k], cu[i, k] = x, cap, x - c + cap * inverse_k
+                                cx[i, k], cs[i, k], cu[i, k] = x, cap, x - c + cap * inverse_k[i]
                                 k += 1
                             break
-                        cx[i, k], cs[i, k], cu[i, k] = x, v, x - c + v * inverse_k
+                        cx[i, k], cs[i, k], cu[i, k] = x, v, x - c + v * inverse_k[i]
                         k += 1
                     clipped[i] = k
                 # The last body: where its subgradient graph crosses 0 (the point of the zero set nearest no motion).
@@ -285,9 +289,9 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, stif
                     y = d[i + 1]
                     cnt = clipped[i]
                     if y <= cu[i, 0]:
-                        d[i] = cx[i, 0] if clip_lo[i] else y + offsets[i] - cs[i, 0] * inverse_k
+                        d[i] = cx[i, 0] if clip_lo[i] else y + offsets[i] - cs[i, 0] * inverse_k[i]
                     elif y >= cu[i, cnt - 1]:
-                        d[i] = cx[i, cnt - 1] if clip_hi[i] else y + offsets[i] - cs[i, cnt - 1] * inverse_k
+                        d[i] = cx[i, cnt - 1] if clip_hi[i] else y + offsets[i] - cs[i, cnt - 1] * inverse_k[i]
                     else:
                         q = 1
                         while cu[i, q] < y:
@@ -299,7 +303,7 @@ def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, stif
                 for i in range(m):
                     sigma[a + i] = 0 if abs(d[i]) <= STUCK else (1 if d[i] > 0.0 else -1)
                 for i in range(m - 1):
-                    force = stiffness * (d[i] - d[i + 1] - offsets[i])
+                    force = ks[i] * (d[i] - d[i + 1] - offsets[i])
                     capped[a + i] = 1 if force >= cap else (-1 if force <= -cap else 0)
             for i in range(m):
                 s[order[a + i]] += d[i]
@@ -327,6 +331,9 @@ def _try_pattern(a, m, order, limits, offsets, k, cap, sigma, capped, d, work):
     guess fails. So does a piece with a body without friction, which may leave the minimiser not unique (free between
     two capped springs): the programme's choice among minimisers, the one nearest no motion, is kept."""
     lower, diag, upper, rhs, force = work[0], work[1], work[2], work[3], work[4]
+    stiffest = 0.0  # the scale below which a pivot is zero
+    for i in range(m - 1):
+        stiffest = max(stiffest, k[i])
     for i in range(m):
         if not limits[order[a + i]] > 0.0:
             return False
@@ -335,26 +342,27 @@ def _try_pattern(a, m, order, limits, offsets, k, cap, sigma, capped, d, work):
             if sigma[a + i] == 0:
                 lower[i], diag[i], upper[i], rhs[i] = 0.0, 1.0, 0.0, 0.0
                 continue
-            # F_j = u_j k (d_j - d_j+1 - c_j) + C_j for spring j; body i slides when F_i-1 - F_i = sigma_i w_i,
-            # here as k (2 d_i - d_i-1 - d_i+1) = -sigma_i w_i - k c_i-1 + k c_i + C_i-1 - C_i (u = 1 both sides).
+            # F_j = u_j k_j (d_j - d_j+1 - c_j) + C_j for spring j; body i slides when F_i-1 - F_i = sigma_i w_i,
+            # here as (k_i-1 + k_i) d_i - k_i-1 d_i-1 - k_i d_i+1 = -sigma_i w_i - k_i-1 c_i-1 + k_i c_i + C_i-1 - C_i
+            # (u = 1 both sides).
             total = -sigma[a + i] * limits[order[a + i]]
             lo = up = 0.0
             if i > 0:
                 if capped[a + i - 1] == 0:
-                    lo = k
-                    total -= k * offsets[i - 1]
+                    lo = k[i - 1]
+                    total -= lo * offsets[i - 1]
                 else:
                     total += capped[a + i - 1] * cap
             if i < m - 1:
                 if capped[a + i] == 0:
-                    up = k
-                    total += k * offsets[i]
+                    up = k[i]
+                    total += up * offsets[i]
                 else:
                     total -= capped[a + i] * cap
             lower[i], diag[i], upper[i], rhs[i] = -lo, lo + up, -up, total
         for i in range(m):  # forward elimination
             pivot = diag[i] - (lower[i] * upper[i - 1] if i > 0 else 0.0)
-            if not abs(pivot) > 1e-9 * k:
+            if not abs(pivot) > 1e-9 * stiffest:
                 return False
             upper[i] = upper[i] / pivot
             rhs[i] = (rhs[i] - (lower[i] * rhs[i - 1] if i > 0 else 0.0)) / pivot
@@ -363,7 +371,7 @@ def _try_pattern(a, m, order, limits, offsets, k, cap, sigma, capped, d, work):
             d[i] = rhs[i] - upper[i] * d[i + 1]
         met = True
         for i in range(m - 1):
-            f = k * (d[i] - d[i + 1] - offsets[i])
+            f = k[i] * (d[i] - d[i + 1] - offsets[i])
             state = capped[a + i]
             force[i] = f if state == 0 else state * cap
             if state == 0 and not abs(f) <= cap:

@@ -103,8 +103,8 @@ class World(Bellows):
         friction_ticks, pumping = self._friction_schedule(start, n_ticks) if pumps else (set(), None)
         substeps = self.physics.substeps
         h = self.tick / substeps
-        stiffness = np.array([a.stiffness, a.damping, a.max_force, a.shear_stiffness, a.shear_damping,
-                              a.bending_stiffness, a.twist_stiffness, a.rotational_damping])
+        stiffness = np.array([a.damping, a.max_force, a.shear_stiffness, a.shear_damping, a.bending_stiffness,
+                              a.twist_stiffness, a.rotational_damping])
         c, bodies = self.client, self.bodies
         n = len(bodies)
         positions, orientations = np.empty((n, 3)), np.empty((n, 4))
@@ -120,7 +120,7 @@ class World(Bellows):
                 if substep == 0 and k in friction_ticks:
                     self._apply_friction(positions, None if pumping is None else pumping[k])
                 _link_forces(positions, orientations, self._front, self._rear, self.intact, self._axes,
-                             rest_lengths[k], *self._previous, h, stiffness, force, torque)
+                             rest_lengths[k], *self._previous, h, self.link_stiffness, stiffness, force, torque)
                 forces, torques = force.tolist(), torque.tolist()
                 for b in range(n):
                     push(bodies[b], -1, forces[b], states[b][0], frame, physicsClientId=c)
@@ -157,8 +157,8 @@ class World(Bellows):
             pb.changeDynamics(self.bodies[i], -1, lateralFriction=float(friction[i]), physicsClientId=self.client)
         self._applied_friction = friction
 
-    def set_friction_scale(self, scale: float) -> None:
-        super().set_friction_scale(scale)
+    def set_friction_scale(self, scale: float, bodies: str = "all") -> None:
+        super().set_friction_scale(scale, bodies)
         self._apply_friction(self.poses()[0], None)
 
     @property
@@ -190,11 +190,12 @@ def _rotate(q, v):
 
 @numba.njit(cache=True)
 def _link_forces(positions, orientations, front, rear, intact, axes, rest, last_length, last_shear, last_turn, h,
-                 stiffness, force, torque):
+                 axial_stiffness, stiffness, force, torque):
     """Every intact link's spring-damper force and torque on its two bodies, summed into ``force`` and ``torque``
     (world frame); ``last_*`` hold each link's length, shear offset and relative rotation at the previous substep
-    (updated). ``stiffness``: axial k, c, cap; shear k, c; bending k, twist k, rotational c."""
-    k, c, cap, k_shear, c_shear, k_bend, k_twist, c_turn = stiffness
+    (updated). ``axial_stiffness``: each link's k; ``stiffness``: axial c, cap; shear k, c; bending k, twist k,
+    rotational c."""
+    c, cap, k_shear, c_shear, k_bend, k_twist, c_turn = stiffness
     force[:] = 0.0
     torque[:] = 0.0
     for j in range(len(front)):
@@ -203,7 +204,7 @@ def _link_forces(positions, orientations, front, rear, intact, axes, rest, last_
         f, r = front[j], rear[j]
         d = positions[f] - positions[r]
         length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-        axial = k * (rest[j] - length) - c * (length - last_length[j]) / h
+        axial = axial_stiffness[j] * (rest[j] - length) - c * (length - last_length[j]) / h
         axial = max(-cap, min(cap, axial)) / length  # > 0 pushes the bodies apart
         last_length[j] = length
         mean = _rotate(orientations[f], axes[j]) + _rotate(orientations[r], axes[j])
