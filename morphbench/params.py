@@ -252,20 +252,21 @@ class LearnerParams:
 
     step_size: float = param(0.1, Range(0, 1, high_inclusive=True), "cycles")
     """delta_s: a trial phase is the kept phase plus uniform(-1, 1) * step_size, modulo 1."""
-    temperature: float = param(0.5, Range(0, math.inf, high_inclusive=True), "mm/cycle")
+    temperature: float = param(0.6, Range(0, math.inf, high_inclusive=True), "mm/cycle")
     """T, mm/cycle: a worse trial (lower velocity by d) is accepted with probability exp(-d / T). Chosen as the
     paper reports for its simulations (Fig. 2B): a noiseless 3-unit Thermal run accepts about 25% of trials once
-    learned (docs/fidelity.md, docs/paper.md)."""
+    learned (0.22 at 0.6, 0.26 at 0.7: docs/fidelity.md, "Temperature"); of the two, 0.6 also keeps S6's freeze
+    (docs/calibration.md)."""
     cycles_per_step: int = param(2, CYCLES, "cycles")
     """n_act: actuation cycles per learning step; a measurement is the displacement over them / n_act."""
     warmup_cycles: int = param(1, between(0, MAX_CYCLES_PER_STEP, integer=True), "cycles")
     """cycles the units run at their initial phases before the first measurement, so that step 0 does not
     measure the start from rest (the first extension from rest is a one-off transient of several mm)."""
-    discard_cycles: int = param(1, between(0, MAX_CYCLES_PER_STEP, integer=True), "cycles")
-    """cycles run after each phase change before the measurement starts. Without one, a unit's 2-cycle measurement
-    also holds the change of its own offset in the chain between the window's edges, several mm/cycle after a phase
-    change; the paper (whose velocity calculation is in a supplement we lack) reaches its first result only
-    without that edge effect (docs/fidelity.md, S1 with 0 and 1)."""
+    discard_cycles: int = param(0, between(0, MAX_CYCLES_PER_STEP, integer=True), "cycles")
+    """cycles run after each phase change before the measurement starts: none, as in the paper (a learning step is
+    its 2 actuation cycles: "20 learning iterations" are 80 s). A measurement that starts at a phase change also
+    holds the change of the unit's own offset in the chain, several mm/cycle; 1 leaves that edge effect out
+    (docs/fidelity.md, S1 with 0 and 1)."""
     initial_memory: InitialMemory = param("measure", Choices(INITIAL_MEMORY_CHOICES))
     """what the memory holds before the first trial: 'measure' (velocity at the initial phase), '-inf' or 'zero'."""
 

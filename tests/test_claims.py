@@ -49,7 +49,8 @@ def base() -> dict:
         grid = s3.copy()
         grid[4, 2] = float(k)  # (0.4, 0.2) depends on the ground, (0.4, 0.8) does not
         grounds[f"S3-ground-{k}"] = grid
-    events = {"S5": "friction scale=0.6", "S6": "damage unit=2 mode=no-inflate", "S10": "shuffle seed=3",
+    events = {"S5": "friction scale=0.5 bodies=passive", "S5-uniform": "friction scale=0.6",
+              "S6": "damage unit=2 mode=open", "S10": "shuffle seed=3",
               "S11": "cut link=3"}
     conditions = {
         "S1": condition("S1", "chain-2", 2, steps=100, level=4.5),
@@ -70,6 +71,7 @@ def base() -> dict:
                                             acceptance_after=0.1)
         conditions[f"{name}-F"] = condition(name, learner="flaky", level=3.0, acceptance=0.6,
                                             event=(60, events[name]), after=after[1], acceptance_after=0.6)
+    conditions["S5-uniform-T"] = condition("S5-uniform", level=3.0, event=(60, events["S5-uniform"]), after=3.6)
     conditions["S10"] = condition("S10", "chain-7", 7, learner="flaky", level=2.0, event=(60, events["S10"]),
                                   after=2.0)
     conditions["S11"] = condition("S11", "chain-7", 7, learner="flaky", level=2.0, event=(60, events["S11"]),
@@ -82,7 +84,7 @@ def base() -> dict:
              "S2-vibration": (2, HARDWARE, "vibration=0.8", "shaken", "none"),
              "S3": (3, s3, "default", DEFAULT, "none"),
              "S7": (3, np.where(s3 > 2.0, 3.0, 0.0), "friction_scale=1.5", "f15", "none"),
-             "S6-damaged": (3, bump((0.2, 0.2), 4.0), "default", DEFAULT, "damage unit=2 mode=no-inflate"),
+             "S6-damaged": (3, bump((0.2, 0.2), 4.0), "default", DEFAULT, "damage unit=2 mode=open"),
              **{name: (3, grid, "friction_field", f"g{name[-1]}", "none") for name, grid in grounds.items()}}
     return {"conditions": conditions, "scans": scans}
 
@@ -234,6 +236,7 @@ FAILING = {
     "S5-flaky-after": changed(**{"S5-F": {"after": 1.0}}),
     "S5-thermal-stops": changed(**{"S5-T": {"acceptance_after": 0.3}}),
     "S5-flaky-accepts": changed(**{"S5-F": {"acceptance_after": 0.3}}),
+    "S5-uniform-faster": changed(**{"S5-uniform-T": {"after": 2.5}}),
     "S6-flaky-after": changed(**{"S6-F": {"after": 0.5}}),
     "S6-thermal-stuck": changed(**{"S6-T": {"acceptance_after": 0.3}}),
     "S6-landscape": changed(**{"S6-damaged": S3_GRID}),

@@ -217,7 +217,8 @@ def test_the_default_two_unit_curve_has_the_papers_shape():
 
 def test_the_papers_first_result_on_the_default_physics():
     """S1: 2-unit Thermal with every default and the ideal sensor, 32 seeds of 100 steps: most runs reach 0.8 of the
-    scan's peak within 20 steps, nearly all by step 60, and they stay near the peak afterwards."""
+    scan's peak within 20 steps, nearly all by step 60, and they stay near the peak afterwards (half of it on
+    average: trials spread +-0.2 around a kept phase difference on a peak narrower than that, docs/paper.md)."""
     shape = load_shape(SHAPES_DIR / "chain-2.toml")
     peak = scan(shape, 20, cycles=4).ubar.max()
     first, hold = [], []
@@ -228,7 +229,7 @@ def test_the_papers_first_result_on_the_default_physics():
         hold.append(u.iloc[50:].mean() / peak)
     assert np.median(first) <= 20, first
     assert np.sum(np.array(first) <= 60) >= 30, first
-    assert np.mean(hold) >= 0.55, np.mean(hold)
+    assert np.mean(hold) >= 0.5, np.mean(hold)
 
 
 def solve(s, extension, limits, order, starts, pair_link, pair_sign, k, cap, guess_from):

@@ -19,6 +19,7 @@ from morphbench.bench.store import Store
 from morphbench.cli import main
 from morphbench.experiment import RunConfig, run
 from morphbench.experiment.records import RunRecords
+from morphbench.params import LearnerParams
 from morphbench.shapes import load_shape, shape_from_table
 
 from conftest import SHAPES_DIR as SHAPES
@@ -45,17 +46,18 @@ class Gait:
         return False
 
 
-def gait_run(shape, plan: list[list[float]], steps: int = 6) -> RunRecords:
+def gait_run(shape, plan: list[list[float]], steps: int = 6, discard: int = 0) -> RunRecords:
     Gait.plan = [list(sequence) for sequence in plan]
-    return run(RunConfig(shape=shape, learner=f"{__name__}:Gait", steps=steps))
+    return run(RunConfig(shape=shape, learner=f"{__name__}:Gait", steps=steps,
+                         learner_params=LearnerParams(discard_cycles=discard)))
 
 
 def grid_2x2():
     return shape_from_table({"assembly": {"generator": "grid", "rows": 2, "columns": 2, "dummy": True}}, source="test")
 
 
-# unit 2 changes its phase every step, so the speed changes from step to step (and differs from Ubar, which leaves
-# out the cycle discarded after each change)
+# unit 2 changes its phase every step, so the speed changes from step to step (and differs from Ubar where a cycle is
+# discarded after each change: Ubar leaves it out)
 CRAWL = [[0.0], [0.4, 0.3, 0.45]]
 
 
@@ -70,7 +72,10 @@ def test_a_crawling_chain_is_scored_by_its_centroid_along_x():
     assert math.isnan(steps.u_heading.iloc[0])
     assert np.allclose(steps.u_heading.iloc[1:], by_hand, rtol=1e-12, atol=0)
     assert (by_hand > 1.0).all() and np.ptp(by_hand) > 0.1  # it crawls forward, at speeds that vary
-    assert not np.allclose(steps.u_heading.iloc[1:], steps.ubar_true.iloc[1:])
+    # with no discarded cycle (the default) a step's window is the whole step: the centroid's speed is Ubar's
+    assert np.allclose(steps.u_heading.iloc[1:], steps.ubar_true.iloc[1:], rtol=1e-9, atol=1e-12)
+    discarding = gait_run(CHAIN_2, CRAWL, discard=1).steps()
+    assert not np.allclose(discarding.u_heading.iloc[1:], discarding.ubar_true.iloc[1:])
     assert np.abs(steps.heading_rad).max() < 1e-9
     summary = records.summary()
     assert summary["turning_rate_deg_per_cycle"] == 0.0
