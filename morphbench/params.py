@@ -241,7 +241,8 @@ class LearnerParams:
     """Each unit's learner. Every unit gets its own copy and its own random stream."""
 
     step_size: float = param(0.1, Range(0, 1, high_inclusive=True), "cycles")
-    """delta_s: a trial phase is the kept phase plus uniform(-1, 1) * step_size, modulo 1."""
+    """delta_s: a trial phase is the kept phase plus uniform(-1, 1) * step_size, modulo 1 (the 'adaptive' learner's
+    first step size)."""
     temperature: float = param(0.5, Range(0, math.inf, high_inclusive=True), "mm/cycle")
     """T, mm/cycle: a worse trial (lower velocity by d) is accepted with probability exp(-d / T). Chosen as the
     paper reports for its simulations (Fig. 2B): a noiseless 3-unit Thermal run accepts about 25% of trials once

@@ -58,8 +58,8 @@ class UnitArrays(Controller):
         """per unit, whether it has a memory to compare with (not so before its first measurement, 'measure')."""
         self.trial = self.phase.copy()
         self.step_size = np.full(len(rngs), params.step_size)
-        self.trials = np.zeros(len(rngs), dtype=int)  # the adaptive rule's current window, per unit
-        self.accepted = np.zeros(len(rngs), dtype=int)
+        self.window_trials = np.zeros(len(rngs), dtype=int)  # the adaptive rule's current window, per unit
+        self.window_accepted = np.zeros(len(rngs), dtype=int)
 
     def initial(self) -> np.ndarray:
         return self.phase.copy()
@@ -109,11 +109,11 @@ class UnitArrays(Controller):
 
     def _adapt(self, tried: np.ndarray, accepted: np.ndarray) -> None:
         """Count the trials of units ``tried``; a unit whose window is full changes its step size."""
-        self.trials[tried] += 1
-        self.accepted[tried] += accepted[tried]
-        full = tried[self.trials[tried] == self.params.adapt_window]
-        self.step_size[full] = adapted_step_size(self.step_size[full], self.accepted[full], self.params)
-        self.trials[full] = self.accepted[full] = 0
+        self.window_trials[tried] += 1
+        self.window_accepted[tried] += accepted[tried]
+        full = tried[self.window_trials[tried] == self.params.adapt_window]
+        self.step_size[full] = adapted_step_size(self.step_size[full], self.window_accepted[full], self.params)
+        self.window_trials[full] = self.window_accepted[full] = 0
 
     def memory(self) -> np.ndarray:
         return self._memory.copy()

@@ -123,14 +123,14 @@ class AdaptiveLearner(ThermalLearner):
 
     def __init__(self, params: LearnerParams, rng: np.random.Generator):
         super().__init__(params, rng)
-        self.trials = self.accepted = 0  # in the current window
+        self.window_trials = self.window_accepted = 0
 
     def update(self, velocity: float) -> bool:
         tried = self.memory is not None
         accepted = super().update(velocity)
         if tried:
-            self.trials, self.accepted = self.trials + 1, self.accepted + accepted
-            if self.trials == self.params.adapt_window:
-                self.step_size = float(adapted_step_size(self.step_size, self.accepted, self.params))
-                self.trials = self.accepted = 0
+            self.window_trials, self.window_accepted = self.window_trials + 1, self.window_accepted + accepted
+            if self.window_trials == self.params.adapt_window:
+                self.step_size = float(adapted_step_size(self.step_size, self.window_accepted, self.params))
+                self.window_trials = self.window_accepted = 0
         return accepted

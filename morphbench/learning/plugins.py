@@ -1,9 +1,8 @@
 """Choosing a learner by name (``--learner``), per-unit random streams, and building one learner per unit.
 
 ``--learner`` takes ``thermal``, ``flaky``, ``averaged``, ``adaptive`` or ``random`` (the no-learning baseline; any
-case), or a plug-in class as
-``package.module:ClassName``; the module is imported with ``importlib``, so its directory must be on ``sys.path``
-(e.g. via ``PYTHONPATH``).
+case; docs/learners.md), or a plug-in class as ``package.module:ClassName``; the module is imported with
+``importlib``, so its directory must be on ``sys.path`` (e.g. via ``PYTHONPATH``).
 It also takes the centralized baselines ``cmaes``, ``random-search`` and ``hill-climber``
 (morphbench.learning.controllers): one controller for all units instead of one learner per unit.
 ``make_controller`` builds either for the run loop.
