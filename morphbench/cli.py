@@ -62,7 +62,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("config", metavar="FILE",
                      help="a morphology file (shapes/chain-3.toml) or a run configuration (examples/s6-damage.toml)")
     # Options default to None: given ones override the file, the others leave it as it is.
-    run.add_argument("--learner", help="thermal, flaky, random (no learning) or a plug-in package.module:Class")
+    run.add_argument("--learner", help="thermal, flaky, averaged, adaptive, random (no learning), a centralized "
+                                        "cmaes, random-search or hill-climber, or a plug-in package.module:Class")
     run.add_argument("--steps", type=option_type(STEPS),
                      help=f"learning steps after the initial measurement (default {DEFAULT_STEPS})")
     learner, sensor = LearnerParams(), SensorParams()

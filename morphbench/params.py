@@ -251,7 +251,8 @@ class LearnerParams:
     """Each unit's learner. Every unit gets its own copy and its own random stream."""
 
     step_size: float = param(0.1, Range(0, 1, high_inclusive=True), "cycles")
-    """delta_s: a trial phase is the kept phase plus uniform(-1, 1) * step_size, modulo 1."""
+    """delta_s: a trial phase is the kept phase plus uniform(-1, 1) * step_size, modulo 1 (the 'adaptive' learner's
+    first step size)."""
     temperature: float = param(0.6, Range(0, math.inf, high_inclusive=True), "mm/cycle")
     """T, mm/cycle: a worse trial (lower velocity by d) is accepted with probability exp(-d / T). Chosen as the
     paper reports for its simulations (Fig. 2B): a noiseless 3-unit Thermal run accepts about 25% of trials once
@@ -269,6 +270,33 @@ class LearnerParams:
     (docs/fidelity.md, S1 with 0 and 1)."""
     initial_memory: InitialMemory = param("measure", Choices(INITIAL_MEMORY_CHOICES))
     """what the memory holds before the first trial: 'measure' (velocity at the initial phase), '-inf' or 'zero'."""
+    memory_weight: float = param(0.5, between(0, 1, low_inclusive=False))
+    """beta, the 'averaged' learner's only own field: after every trial its memory moves the fraction beta of the
+    way to the measured velocity, memory <- (1 - beta) memory + beta U', an exponential average of its measurements
+    over about 1 / beta steps; 1 is Flaky."""
+    adapt_rate: float = param(0.2, between(0, 5))
+    """c, of the 'adaptive' learner: after every ``adapt_window`` trials its step size is multiplied by exp(c) if
+    it accepted more than ``target_acceptance`` of them, by exp(-c) if fewer; 0 keeps step_size (Thermal)."""
+    adapt_window: int = param(10, COUNT, "steps")
+    """the trials the 'adaptive' learner's acceptance rate is counted over before each change of its step size."""
+    target_acceptance: float = param(0.4, Range(0, 1, low_inclusive=False))
+    """the acceptance rate the 'adaptive' learner steers to. Not the 1/5 rule's 0.2: a learned Thermal unit accepts
+    0.2-0.35 of trials at step 0.1, so 0.2 grows the step and loses, where 0.4 gains (docs/learners.md)."""
+    step_size_min: float = param(0.01, between(0, 1, low_inclusive=False), "cycles")
+    """the smallest step size the 'adaptive' learner shrinks to."""
+    step_size_max: float = param(0.5, between(0, 1, low_inclusive=False), "cycles")
+    """the largest step size the 'adaptive' learner grows to (at least step_size_min; 0.5 already reaches every
+    phase)."""
+
+
+def check_learner(params: LearnerParams, source: str, prefix: str = "") -> LearnerParams:
+    """``params`` if every field is allowed and the adaptive learner's step sizes are ordered, else ConfigError
+    naming the first bad key (``prefix`` + field)."""
+    check_params(params, source, prefix)
+    if params.step_size_min > params.step_size_max:
+        raise ConfigError(source, f"{prefix}step_size_max", f"a step size >= step_size_min "
+                          f"({params.step_size_min:g} cycles)", params.step_size_max)
+    return params
 
 
 
@@ -463,6 +491,7 @@ def check_run(config: Any, source: str) -> None:
     check_rule(STEPS, "", config.steps, source, "steps")
     check_rule(SEED, "", config.seed, source, "seed")
     actuator, physics, learner = config.shape.actuator, config.physics, config.learner_params
+    check_learner(learner, source, "learner.")
     tick, cycle = physics.timestep, actuator.cycle_time
     shorter = min(actuator.alpha, 1 - actuator.alpha)
     if shorter * cycle < MIN_TICKS_PER_PHASE * tick:

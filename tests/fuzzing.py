@@ -321,7 +321,7 @@ BAD_NUMBERS = ["-1", "x", "1e300", "nan", "inf", "-inf", str(2 ** 62), "1.5", ""
 OPTION_VALUES: dict[str, dict[str, list[str]]] = {
     # command: option: values (all bad unless listed in GOOD below)
     "run": {"--learner": ["", "nope", "x:y", "os:path", "thermal:", ":", "a" * 300, "math:pi", "builtins:object",
-                          "thermal", "flaky", "random"],
+                          "thermal", "flaky", "averaged", "adaptive", "random"],
             "--steps": BAD_NUMBERS + ["0"], "--seed": BAD_NUMBERS + ["3", "0"],
             "--temperature": ["-1", "nan", "x", "-inf", "", "1e-300", "inf", "0"],
             "--step-size": ["2", "-0.1", "nan", "1.0000001", "inf", "0", "1"],
@@ -340,7 +340,8 @@ OPTION_VALUES: dict[str, dict[str, list[str]]] = {
     "bench": {"--workers": ["0", "-1", "x", "1.5", "", "nan"], "--resume": [], "--retry-failed": [], "--bogus": [],
               "--out": ["{dir}/a\0b", "{dir}/" + "o" * 300, "{dir}/file.txt", ""]},
 }
-GOOD = {"thermal", "flaky", "random", "0", "1", "3", "5", "0.5", "ideal", "quasistatic", "inf", "1e-300"}
+GOOD = {"thermal", "flaky", "averaged", "adaptive", "random", "0", "1", "3", "5", "0.5", "ideal", "quasistatic", "inf",
+        "1e-300"}
 POSITIONAL_BAD = ["{dir}/missing.toml", "{dir}/a\0b.toml", "{dir}/" + "p" * 300 + ".toml", "{dir}", "{dir}/file.txt",
                   "", "-", "nonexistent-shape-name", "{dir}/bad.toml"]
 SHAPES_BAD_OUT = ["{dir}/x.txt", "{dir}/a\0b.glb", "{dir}/" + "e" * 300 + ".png", "{dir}", "{dir}/no/such/dir/x.png",

@@ -242,7 +242,7 @@ def test_bad_scan_option_value(tmp_path: Path, capsys):
 @pytest.mark.parametrize(
     "spec, expected",
     [
-        ("nosuch", "'thermal', 'flaky' or 'random'"),
+        ("nosuch", "'thermal', 'flaky', 'averaged', 'adaptive' or 'random'"),
         ("nosuchmodule:X", "an importable module 'nosuchmodule'"),
         ("json:JSONDecoder", "to have methods propose() and update(velocity) (missing: propose, update)"),
         ("json:NoSuchClass", "to define a class 'NoSuchClass'"),

@@ -376,7 +376,7 @@ BAD_MODULES = {
 @pytest.mark.parametrize(
     "spec, expected",
     [
-        ("metropolis", "'thermal', 'flaky' or 'random'"),
+        ("metropolis", "'thermal', 'flaky', 'averaged', 'adaptive' or 'random'"),
         ("mb_shapes", "package.module:ClassName"),  # no colon
         ("mb_shapes:", "package.module:ClassName"),
         (":NoUpdate", "package.module:ClassName"),
@@ -482,11 +482,11 @@ def test_thermal_beats_random_phase_changes_on_a_chain():
     assert thermal > 2.0 and thermal > random + 1.5
 
 
-@pytest.mark.parametrize("name", ["thermal", "flaky", "random"])
+@pytest.mark.parametrize("name", ["thermal", "flaky", "averaged", "adaptive", "random"])
 @pytest.mark.parametrize("initial_memory, temperature", [("measure", 0.5), ("-inf", 0.0), ("zero", math.inf),
                                                          ("measure", 3.0)])
 def test_the_arrays_of_a_built_in_learner_step_as_its_objects(name, initial_memory, temperature):
-    """make_controller steps thermal, flaky and random as arrays over the units (learning/arrays.py): the same
+    """make_controller steps every per-unit built-in as arrays over the units (learning/arrays.py): the same
     proposals, acceptances, kept phases and memories as one learner object per unit, step by step, dead units
     included, for every initial memory and temperature; more steps than a block of draws."""
     from morphbench.learning.arrays import BLOCK, UnitArrays

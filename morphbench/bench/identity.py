@@ -9,7 +9,7 @@ import hashlib
 import json
 from typing import Any
 
-from morphbench.params import EnvironmentParams
+from morphbench.params import EnvironmentParams, LearnerParams
 
 
 def stable_hash(data: Any, length: int = 12) -> str:
@@ -37,6 +37,12 @@ def shape_id(shape) -> str:
     return stable_hash(shape_identity(shape))
 
 
+LATER_LEARNER_FIELDS = ("memory_weight", "adapt_rate", "adapt_window", "target_acceptance", "step_size_min",
+                        "step_size_max")
+"""LearnerParams fields added after results were stored (the averaged and adaptive learners' own): hashed only when
+set away from their defaults, so every run that existed before them keeps its id."""
+
+
 def config_identity(config, preset: str) -> dict:
     """Everything that determines a run's records (a RunConfig), JSON-ready, the shape by content (what its id
     hashes). ``noise`` and ``physics_preset`` are there because the first suites hashed them: existing results keep
@@ -45,6 +51,10 @@ def config_identity(config, preset: str) -> dict:
     for f in dataclasses.fields(config):
         value = getattr(config, f.name)
         data[f.name] = dataclasses.asdict(value) if dataclasses.is_dataclass(value) else value
+    default = LearnerParams()
+    for name in LATER_LEARNER_FIELDS:
+        if getattr(config.learner_params, name) == getattr(default, name):
+            del data["learner_params"][name]
     data["shape"] = shape_identity(config.shape)
     data["events"] = [e.settings() for e in config.events]  # each its kind, step and own fields
     data["noise"] = config.environment.noise

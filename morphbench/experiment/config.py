@@ -5,7 +5,8 @@
     steps = 600
     seed = 1
 
-    [learner]                 # name: thermal | flaky | random | package.module:Class, and any LearnerParams field
+    [learner]                 # name: thermal | flaky | averaged | adaptive | random | package.module:Class, ...
+                              # and any LearnerParams field
     name = "thermal"
     temperature = 0.5
 
@@ -97,7 +98,7 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path,
     learner_table = dict(_table(table, "learner", source))
     learner = learner_table.pop("name", "thermal")
     if not isinstance(learner, str):
-        raise ConfigError(source, "learner.name", "thermal, flaky, random or package.module:Class", learner)
+        raise ConfigError(source, "learner.name", "a learner name or package.module:Class", learner)
     try:
         load_learner_class(learner)
     except ConfigError as exc:  # it names the learner as if given by --learner: name this file's key instead

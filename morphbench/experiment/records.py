@@ -7,11 +7,11 @@ A run directory holds:
   ``phase_kept`` (cycles, 0..1), ``u_measured`` (mm/cycle, what the unit's sensor reported, noise included; NaN for a
   dead unit), ``u_true`` (mm/cycle, the unit's true displacement along its forward axis per cycle), ``u_memory``
   (mm/cycle, the velocity the learner remembers after the step, what its next trial is compared with: Thermal's last
-  accepted measurement, Flaky's and the random baseline's last measurement, a centralized controller's measurement
-  of the unit at its kept vector; NaN for a plug-in without a ``memory``), ``accepted``
-  (whether the learner kept the tried phase), ``x_m``, ``y_m`` (m, where the unit's centre is on the ground at the end
-  of the step: start and end positions, 2-D trajectories), ``heading_rad`` (the direction of the unit's forward axis
-  on the ground, from +x towards +y, in (-pi, pi]).
+  accepted measurement (Adaptive's too), Flaky's and the random baseline's last measurement, Averaged's exponential
+  average of its measurements, a centralized controller's measurement of the unit at its kept vector; NaN for a
+  plug-in without a ``memory``), ``accepted`` (whether the learner kept the tried phase), ``x_m``, ``y_m`` (m,
+  where the unit's centre is on the ground at the end of the step: start and end positions, 2-D trajectories),
+  ``heading_rad`` (the direction of the unit's forward axis on the ground, from +x towards +y, in (-pi, pi]).
 - ``steps.parquet``: one row per learning step: ``step``, ``time_s`` (simulated time at the end of the step),
   ``ubar`` (mean ``u_measured`` over the units that are not dead), ``ubar_true`` (the same units' true velocities),
   ``acceptance`` (fraction of those units that accepted), ``event`` (the events applied at the start of the step,

@@ -49,8 +49,8 @@ class RunConfig:
 
     shape: Shape
     learner: str = "thermal"
-    """'thermal', 'flaky', 'random', a centralized 'cmaes', 'random-search', 'hill-climber', or a plug-in
-    'package.module:Class'."""
+    """'thermal', 'flaky', 'averaged', 'adaptive', 'random', a centralized 'cmaes', 'random-search',
+    'hill-climber', or a plug-in 'package.module:Class'."""
     learner_params: LearnerParams = field(default_factory=LearnerParams)
     sensor: SensorParams = field(default_factory=SensorParams)
     environment: EnvironmentParams = field(default_factory=EnvironmentParams)

@@ -1,4 +1,5 @@
-"""The built-in per-unit learners of a run (thermal, flaky, random) stepped as arrays over its units.
+"""The built-in per-unit learners of a run (thermal, flaky, averaged, adaptive, random) stepped as arrays over its
+units.
 
 Each unit keeps its own state and its own random stream (``plugins.unit_rng``), and draws from it exactly the numbers
 ``metropolis.MetropolisLearner`` or ``baselines.RandomLearner`` draws, in the same order: every draw of those learners
@@ -16,8 +17,8 @@ import numpy as np
 
 from morphbench.errors import PluginError
 from morphbench.learning.base import Controller, initial_memory, wrap_phases
-from morphbench.learning.metropolis import acceptance_probability
-from morphbench.params import LearnerParams, check_params
+from morphbench.learning.metropolis import acceptance_probability, adapted_step_size, averaged_memory
+from morphbench.params import LearnerParams, check_learner
 
 BLOCK = 64
 """doubles read ahead from each unit's stream at a time."""
@@ -41,12 +42,13 @@ class Draws:
 
 
 class UnitArrays(Controller):
-    """``rule`` 'thermal', 'flaky' or 'random' for every unit of a run, unit u drawing from ``rngs[u]``."""
+    """``rule`` 'thermal', 'flaky', 'averaged', 'adaptive' or 'random' for every unit of a run, unit u drawing from
+    ``rngs[u]``."""
 
     centralized = False
 
     def __init__(self, rule: str, params: LearnerParams, rngs: list[np.random.Generator], name: str):
-        check_params(params, "LearnerParams")
+        check_learner(params, "LearnerParams")
         self.rule, self.params, self.name = rule, params, name
         self.draws = Draws(rngs)
         self.phase = self.draws.next(np.arange(len(rngs)))  # uniform(0, 1): already in [0, 1)
@@ -55,6 +57,9 @@ class UnitArrays(Controller):
         self.measured = np.full(len(rngs), first is not None)
         """per unit, whether it has a memory to compare with (not so before its first measurement, 'measure')."""
         self.trial = self.phase.copy()
+        self.step_size = np.full(len(rngs), params.step_size)
+        self.window_trials = np.zeros(len(rngs), dtype=int)  # the adaptive rule's current window, per unit
+        self.window_accepted = np.zeros(len(rngs), dtype=int)
 
     def initial(self) -> np.ndarray:
         return self.phase.copy()
@@ -67,7 +72,7 @@ class UnitArrays(Controller):
         else:
             asking = np.flatnonzero(alive & self.measured)
             eps = -1.0 + 2.0 * self.draws.next(asking)
-            trial[asking] = wrap_phases(self.phase[asking] + eps * self.params.step_size)
+            trial[asking] = wrap_phases(self.phase[asking] + eps * self.step_size[asking])
         self.trial = trial
         return trial.copy()
 
@@ -93,9 +98,22 @@ class UnitArrays(Controller):
             accepted[unit] = draw < acceptance_probability(velocity[unit] - self._memory[unit],
                                                            self.params.temperature)
         self.phase[accepted] = self.trial[accepted]
-        remembers = rest if self.rule == "flaky" else rest[accepted[rest]]
-        self._memory[remembers] = velocity[remembers]
+        if self.rule == "averaged":
+            self._memory[rest] = averaged_memory(self._memory[rest], velocity[rest], self.params.memory_weight)
+        else:
+            remembers = rest if self.rule == "flaky" else rest[accepted[rest]]
+            self._memory[remembers] = velocity[remembers]
+        if self.rule == "adaptive":
+            self._adapt(rest, accepted)
         return accepted, self.phase.copy()
+
+    def _adapt(self, tried: np.ndarray, accepted: np.ndarray) -> None:
+        """Count the trials of units ``tried``; a unit whose window is full changes its step size."""
+        self.window_trials[tried] += 1
+        self.window_accepted[tried] += accepted[tried]
+        full = tried[self.window_trials[tried] == self.params.adapt_window]
+        self.step_size[full] = adapted_step_size(self.step_size[full], self.window_accepted[full], self.params)
+        self.window_trials[full] = self.window_accepted[full] = 0
 
     def memory(self) -> np.ndarray:
         return self._memory.copy()

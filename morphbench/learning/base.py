@@ -12,8 +12,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from morphbench.params import LearnerParams
-from morphbench.rules import check_params
+from morphbench.params import LearnerParams, check_learner
 
 
 def wrap_phase(phase: float) -> float:
@@ -46,7 +45,7 @@ class Learner(ABC):
     """U_mem, mm/cycle: None before the first measurement when ``initial_memory == 'measure'``."""
 
     def __init__(self, params: LearnerParams, rng: np.random.Generator):
-        check_params(params, "LearnerParams")
+        check_learner(params, "LearnerParams")
         self.params = params
         self.rng = rng
         self.phase = wrap_phase(float(rng.uniform(0.0, 1.0)))

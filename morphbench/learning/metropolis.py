@@ -1,5 +1,6 @@
 """Metropolis learners (Oliveri et al., PNAS 2021, and its SI Fig. S1; docs/paper.md, Protocol): Thermal and Flaky
-differ only in what the memory holds after a trial.
+differ only in what the memory holds after a trial; beyond the paper (docs/learners.md), Averaged keeps an exponential
+average of the measurements and Adaptive is Thermal with a step size steered by its acceptance rate.
 
 Each step a learner tries ``phi_try = (phi + eps * step_size) mod 1`` with ``eps ~ uniform[-1, 1]`` and accepts it
 with probability ``min(1, exp((U_try - U_mem) / T))``. A uniform for that decision is drawn exactly when the trial
@@ -25,12 +26,35 @@ def acceptance_probability(delta: float, temperature: float) -> float:
     return math.exp(delta / temperature)  # delta / inf is -0.0 -> 1.0; underflow gives 0.0, never a warning
 
 
+def averaged_memory(memory, velocity, weight: float):
+    """(1 - w) memory + w velocity, of numbers or arrays: exactly the velocity at w = 1 (memory + w (velocity -
+    memory) is not, by rounding), so that Averaged at w = 1 is Flaky bit for bit; an infinite memory (the '-inf'
+    start) is replaced by the velocity instead of averaged into NaN."""
+    finite = np.isfinite(memory)
+    return np.where(finite, (1.0 - weight) * np.where(finite, memory, 0.0) + weight * velocity, velocity)
+
+
+def adapted_step_size(step_size, accepted: int | np.ndarray, params: LearnerParams):
+    """The adaptive learner's step size after a window of ``params.adapt_window`` trials of which ``accepted`` were
+    accepted, of numbers or arrays: times exp(c) above the target rate, exp(-c) below it, clipped to [step_size_min,
+    step_size_max]; unchanged (and not clipped) at c = 0, so that Adaptive is then Thermal."""
+    if params.adapt_rate == 0:
+        return step_size
+    rate = np.asarray(accepted) / params.adapt_window
+    # the factors from math.exp once, so that a unit's object and its row of arrays multiply by the same doubles
+    factor = np.where(rate > params.target_acceptance, math.exp(params.adapt_rate),
+                      np.where(rate < params.target_acceptance, math.exp(-params.adapt_rate), 1.0))
+    return np.clip(step_size * factor, params.step_size_min, params.step_size_max)
+
+
 class MetropolisLearner(Learner):
     """The shared Metropolis step; subclasses choose the memory rule in ``_remember``."""
 
     def __init__(self, params: LearnerParams, rng: np.random.Generator):
         super().__init__(params, rng)
         self._trial: float | None = None  # the proposed phase awaiting its measurement
+        self.step_size = params.step_size
+        """delta_s, cycles: the reach of the next trial (only Adaptive changes it)."""
 
     def propose(self) -> float:
         if self._trial is not None:
@@ -40,7 +64,7 @@ class MetropolisLearner(Learner):
             self._trial = self.phase
         else:
             eps = float(self.rng.uniform(-1.0, 1.0))
-            self._trial = wrap_phase(self.phase + eps * self.params.step_size)
+            self._trial = wrap_phase(self.phase + eps * self.step_size)
         return self._trial
 
     def update(self, velocity: float) -> bool:
@@ -82,3 +106,31 @@ class FlakyLearner(MetropolisLearner):
 
     def _remember(self, memory: float, velocity: float, accepted: bool) -> float:
         return velocity
+
+
+class AveragedLearner(MetropolisLearner):
+    """The memory is an exponential average of every measured velocity, accepted or not (weight ``memory_weight``):
+    between Flaky (weight 1, the last measurement) and a long average that noise hardly moves."""
+
+    def _remember(self, memory: float, velocity: float, accepted: bool) -> float:
+        return float(averaged_memory(memory, velocity, self.params.memory_weight))
+
+
+class AdaptiveLearner(ThermalLearner):
+    """Thermal whose step size follows its acceptance rate (the 1/5 rule of evolution strategies): counted over
+    every ``adapt_window`` trials, above ``target_acceptance`` the step grows, below it shrinks
+    (``adapted_step_size``). The first step of 'measure', which tries nothing, is no trial."""
+
+    def __init__(self, params: LearnerParams, rng: np.random.Generator):
+        super().__init__(params, rng)
+        self.window_trials = self.window_accepted = 0
+
+    def update(self, velocity: float) -> bool:
+        tried = self.memory is not None
+        accepted = super().update(velocity)
+        if tried:
+            self.window_trials, self.window_accepted = self.window_trials + 1, self.window_accepted + accepted
+            if self.window_trials == self.params.adapt_window:
+                self.step_size = float(adapted_step_size(self.step_size, self.window_accepted, self.params))
+                self.window_trials = self.window_accepted = 0
+        return accepted

@@ -1,8 +1,8 @@
 """Choosing a learner by name (``--learner``), per-unit random streams, and building one learner per unit.
 
-``--learner`` takes ``thermal``, ``flaky`` or ``random`` (the no-learning baseline; any case), or a plug-in class as
-``package.module:ClassName``; the module is imported with ``importlib``, so its directory must be on ``sys.path``
-(e.g. via ``PYTHONPATH``).
+``--learner`` takes ``thermal``, ``flaky``, ``averaged``, ``adaptive`` or ``random`` (the no-learning baseline; any
+case; docs/learners.md), or a plug-in class as ``package.module:ClassName``; the module is imported with
+``importlib``, so its directory must be on ``sys.path`` (e.g. via ``PYTHONPATH``).
 It also takes the centralized baselines ``cmaes``, ``random-search`` and ``hill-climber``
 (morphbench.learning.controllers): one controller for all units instead of one learner per unit.
 ``make_controller`` builds either for the run loop.
@@ -67,19 +67,21 @@ from morphbench.learning.base import Controller, wrap_phase
 from morphbench.learning.arrays import UnitArrays
 from morphbench.learning.baselines import RandomLearner
 from morphbench.learning.controllers import CENTRALIZED, controller_rng
-from morphbench.learning.metropolis import FlakyLearner, ThermalLearner
+from morphbench.learning.metropolis import AdaptiveLearner, AveragedLearner, FlakyLearner, ThermalLearner
 from morphbench.params import LearnerParams
 from morphbench.streams import LEARNER_STREAM
 
-LEARNERS: dict[str, type] = {"thermal": ThermalLearner, "flaky": FlakyLearner, "random": RandomLearner, **CENTRALIZED}
+ARRAYS = {"thermal": ThermalLearner, "flaky": FlakyLearner, "averaged": AveragedLearner, "adaptive": AdaptiveLearner,
+          "random": RandomLearner}
+"""The per-unit built-ins by ``--learner`` name, which a run steps as arrays over its units (learning/arrays.py),
+with the same draws as their objects."""
+
+LEARNERS: dict[str, type] = {**ARRAYS, **CENTRALIZED}
 """Every built-in by ``--learner`` name: the per-unit learners, then the centralized controllers."""
 
-ARRAYS = {ThermalLearner: "thermal", FlakyLearner: "flaky", RandomLearner: "random"}
-"""The per-unit built-ins a run steps as arrays over its units (learning/arrays.py), with the same draws."""
-
 _SOURCE = "--learner"
-_SPEC_FORM = ("'thermal', 'flaky' or 'random' (per unit), 'cmaes', 'random-search' or 'hill-climber' (centralized; "
-              "any case), or a plug-in class as 'package.module:ClassName'")
+_SPEC_FORM = ("'thermal', 'flaky', 'averaged', 'adaptive' or 'random' (per unit), 'cmaes', 'random-search' or "
+              "'hill-climber' (centralized; any case), or a plug-in class as 'package.module:ClassName'")
 _METHODS = ("propose", "update")
 
 
@@ -172,8 +174,9 @@ def make_controller(cls: type, params: LearnerParams, seed: int, n_units: int) -
     ``make_learners`` as one Decentralized controller."""
     if cls in CENTRALIZED.values():
         return cls(params, controller_rng(seed), n_units)
-    if cls in ARRAYS:
-        return UnitArrays(ARRAYS[cls], params, [unit_rng(seed, unit) for unit in range(n_units)], learner_spec(cls))
+    if cls in ARRAYS.values():
+        name = learner_spec(cls)
+        return UnitArrays(name, params, [unit_rng(seed, unit) for unit in range(n_units)], name)
     return Decentralized(make_learners(cls, params, seed, n_units))
 
 
