@@ -11,6 +11,10 @@ from typing import Any
 
 from morphbench.params import EnvironmentParams
 
+LATER_ENVIRONMENT_KEYS = {"clock_drift": 0.0, "clock_offset": 0.0}
+"""Environment keys added after results existed, with the value they had before: hashed only when set otherwise, so
+those results keep their ids."""
+
 
 def stable_hash(data: Any, length: int = 12) -> str:
     """A short hex digest of canonical JSON: the same data gives the same id on every machine and run."""
@@ -47,6 +51,7 @@ def config_identity(config, preset: str) -> dict:
         data[f.name] = dataclasses.asdict(value) if dataclasses.is_dataclass(value) else value
     data["shape"] = shape_identity(config.shape)
     data["events"] = [dataclasses.asdict(e) for e in config.events]  # each its kind, step and own fields
+    data["environment"] = _environment(data["environment"])
     data["noise"] = config.environment.noise
     data["physics_preset"] = preset
     return data
@@ -55,7 +60,12 @@ def config_identity(config, preset: str) -> dict:
 def environment_id(environment: EnvironmentParams) -> str:
     """A hash of the ground a run or scan moves on (the environment without measurement noise, which changes what
     learners measure, not the landscape): a scan's best Ubar is compared with the runs in the same environment."""
-    data = dataclasses.asdict(environment)
+    data = _environment(dataclasses.asdict(environment))
     data.pop("noise", None)
     return stable_hash(data)
+
+
+def _environment(data: dict) -> dict:
+    """An environment's fields without LATER_ENVIRONMENT_KEYS at their old value."""
+    return {key: value for key, value in data.items() if LATER_ENVIRONMENT_KEYS.get(key, object()) != value}
 
