@@ -51,7 +51,7 @@ def config_identity(config, preset: str) -> dict:
         data[f.name] = dataclasses.asdict(value) if dataclasses.is_dataclass(value) else value
     data["shape"] = shape_identity(config.shape)
     data["events"] = [dataclasses.asdict(e) for e in config.events]  # each its kind, step and own fields
-    data["environment"] = _environment(data["environment"])
+    data["environment"] = environment_identity(config.environment)
     data["noise"] = config.environment.noise
     data["physics_preset"] = preset
     return data
@@ -60,12 +60,13 @@ def config_identity(config, preset: str) -> dict:
 def environment_id(environment: EnvironmentParams) -> str:
     """A hash of the ground a run or scan moves on (the environment without measurement noise, which changes what
     learners measure, not the landscape): a scan's best Ubar is compared with the runs in the same environment."""
-    data = _environment(dataclasses.asdict(environment))
+    data = environment_identity(environment)
     data.pop("noise", None)
     return stable_hash(data)
 
 
-def _environment(data: dict) -> dict:
-    """An environment's fields without LATER_ENVIRONMENT_KEYS at their old value."""
-    return {key: value for key, value in data.items() if LATER_ENVIRONMENT_KEYS.get(key, object()) != value}
+def environment_identity(environment: EnvironmentParams) -> dict:
+    """An environment's fields, as hashed: without LATER_ENVIRONMENT_KEYS at their old value."""
+    return {key: value for key, value in dataclasses.asdict(environment).items()
+            if LATER_ENVIRONMENT_KEYS.get(key, object()) != value}
 

@@ -13,15 +13,19 @@ The draws come from the run's seed on a stream of their own (``streams.CLOCK_STR
 every unit's offset), so the learners', noise and sensors' streams are the ones they are without clocks. With both
 parameters 0 the run loop is ``Driver``'s own, untouched (records bit-identical to before the option existed).
 
-``Schedule`` drives the runs of a batch along this timeline: at every tick where something happens to a unit of a
-run, the batch is advanced to it (every run's sensor banks sampled all along, never reset: a unit's measurement is
-the difference of its bank's displacement between its window's ends), then, in this order at one tick: units end
-their step (measurement, update), the run's events of a step apply, units propose, units start measuring, the step
-before is recorded (with the physics checks over every sample since the last record).
+``Schedule`` drives the runs of a batch along this timeline. The batch advances by a fixed number of ticks at a time
+(``grid``, a fifth of the sensors' sample period or less, dividing it and the step), whatever its runs, so that a
+run's worlds, times and samples are the same alone or batched; offsets and windows are whole numbers of grid
+intervals. A run's sensor banks are never reset: they take the poses at each sample period and at each of its units'
+window ends, and a unit's measurement is the difference of its bank's displacement between its window's ends. At one
+tick, in this order: units end their step (measurement, update), the run's events of a step apply, units propose,
+units start measuring, the step before is recorded (with the physics checks over every sample since the last
+record).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -43,6 +47,26 @@ once its last unit has ended it)."""
 def clocked(environment: EnvironmentParams) -> bool:
     """Whether a run's units have clocks of their own."""
     return environment.clock_drift > 0 or environment.clock_offset > 0
+
+
+def schedule_grid(every: int, step_ticks: int) -> int:
+    """Ticks the batch advances at a time: the largest divisor of both the sample period ``every`` and the step
+    ``step_ticks`` (ticks) that is at most a fifth of the sample period (at least 1)."""
+    common = math.gcd(every, step_ticks)
+    return next(d for d in range(max(1, every // 5), 0, -1) if common % d == 0)
+
+
+def clock_ticks(config, ticks_in, grid: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """A run's clocks in ticks (``ticks_in(seconds)``, its world's): each unit's rate error, its offset into a learning
+    step and the ticks it measures over (cycles_per_step of its own cycles, at most a step), both whole numbers of
+    ``grid`` ticks; and the step's ticks."""
+    lp, cycle = config.learner_params, config.shape.actuator.cycle_time
+    step_ticks = ticks_in(lp.discard_cycles * cycle) + ticks_in(lp.cycles_per_step * cycle)
+    errors, starts = draw_clocks(config.environment, config.shape.n_units, config.seed)
+    offsets = grid * np.floor(starts * step_ticks / grid).astype(np.int64)
+    windows = np.array([min(step_ticks, grid * round(ticks_in(lp.cycles_per_step * cycle * (1.0 + e)) / grid))
+                        for e in errors], dtype=np.int64)
+    return errors, offsets, windows, step_ticks
 
 
 def draw_clocks(environment: EnvironmentParams, n_units: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -73,7 +97,7 @@ class OwnClocks:
     """One run's units on their own clocks: their rates set in its world, their offsets and windows in ticks, and
     the run's phases of a learning step unit by unit (``RunLoop``'s state, sensors, controller and records)."""
 
-    def __init__(self, loop: RunLoop, step_ticks: int):
+    def __init__(self, loop: RunLoop, grid: int):
         config = loop.config
         n = config.shape.n_units
         self.loop = loop
@@ -81,13 +105,9 @@ class OwnClocks:
             raise ConfigError(config.shape.source, "environment.clock_offset",
                               f"0 with the centralized learner {config.learner!r}, which measures every unit at once",
                               config.environment.clock_offset)
-        self.errors, starts = draw_clocks(config.environment, n, config.seed)
-        self.offsets = np.floor(starts * step_ticks).astype(np.int64)
-        """ticks from the start of each learning step to this unit's (in [0, step_ticks))."""
-        cycle, cycles = config.shape.actuator.cycle_time, config.learner_params.cycles_per_step
-        self.windows = np.array([min(step_ticks, loop.world.ticks_in(cycles * cycle * (1.0 + e)))
-                                 for e in self.errors], dtype=np.int64)
-        """ticks each unit measures over: cycles_per_step of its own cycles (check_run keeps them in a step)."""
+        self.errors, self.offsets, self.windows, _ = clock_ticks(config, loop.world.ticks_in, grid)
+        """each unit's rate error; ticks from the start of each learning step to this unit's; ticks it measures
+        over (check_run keeps them in a step)."""
         loop.world.set_clock_rates(self.errors[loop.state.order])
         self.banks = [loop.sensor] if loop.truth is None else [loop.sensor, loop.truth]
         self.started = np.zeros((len(self.banks), n))
@@ -97,6 +117,8 @@ class OwnClocks:
         self.rows: dict[int, _StepRows] = {}
         self.samples: list[tuple[np.ndarray, np.ndarray]] = []
         """the units' sampled poses since the last record (for the physics checks)."""
+        self.latest: tuple[np.ndarray, np.ndarray] | None = None
+        """the units' poses at the end of the last advance, if the banks have not taken them."""
 
     def begin(self) -> None:
         """The sensors start integrating at the world's poses (once, after the warm-up)."""
@@ -104,10 +126,19 @@ class OwnClocks:
         for bank in self.banks:
             bank.reset(*poses)
 
-    def sampled(self, positions: np.ndarray, orientations: np.ndarray) -> None:
-        for bank in self.banks:
-            bank.sample_many(positions, orientations)
-        self.samples.append((positions, orientations))
+    def sampled(self, positions: np.ndarray, orientations: np.ndarray, due: bool) -> None:
+        """The units' poses (1, n_units, ...) at the end of an advance: the banks take them if a sample is ``due``,
+        else only if a window ends or starts there (``_take``)."""
+        self.latest = positions, orientations
+        if due:
+            self._take()
+
+    def _take(self) -> None:
+        if self.latest is not None:
+            for bank in self.banks:
+                bank.sample_many(*self.latest)
+            self.samples.append(self.latest)
+            self.latest = None
 
     def _row(self, step: int) -> _StepRows:
         return self.rows.setdefault(step, _StepRows(len(self.running)))
@@ -132,6 +163,7 @@ class OwnClocks:
 
     def start(self, due: np.ndarray) -> None:
         """The ``due`` units start measuring."""
+        self._take()
         position = self.loop.state.position()
         for b, bank in enumerate(self.banks):
             self.started[b, due] = bank.displacement()[position][due]
@@ -139,6 +171,7 @@ class OwnClocks:
     def end(self, step: int, due: np.ndarray) -> None:
         """The ``due`` units end ``step``: their own measurement (with their own noise; NaN for a dead unit), their
         learners' update."""
+        self._take()
         loop = self.loop
         position, alive, noise = loop.state.position(), loop.state.alive(), loop.state.noise
         moved = np.array([bank.displacement()[position] for bank in self.banks]) - self.started
@@ -178,13 +211,14 @@ class Schedule:
         _, discard, measured = driver.ticks
         self.step_ticks = discard + measured
         self.steps = driver.configs[0].steps
-        self.clocks: dict[int, OwnClocks] = driver._each(lambda i, loop: OwnClocks(loop, self.step_ticks),
-                                                         driver._loops())
+        some = next(iter(driver.loops.values()), None)
+        self.every = 1 if some is None else math.gcd(
+            *[max(1, some.world.ticks_in(bank.sample_period)) for bank in (some.sensor, some.truth) if bank])
+        """ticks between the sensors' samples."""
+        self.grid = schedule_grid(self.every, self.step_ticks)
+        self.clocks: dict[int, OwnClocks] = driver._each(lambda i, loop: OwnClocks(loop, self.grid), driver._loops())
         self.now = 0
         """ticks since the end of the warm-up."""
-        some = next(iter(driver.loops.values()), None)
-        self.every = 1 if some is None else int(np.gcd.reduce(
-            [max(1, some.world.ticks_in(bank.sample_period)) for bank in (some.sensor, some.truth) if bank]))
 
     def begin(self) -> None:
         self.driver._each(lambda i, clocks: clocks.begin(), self._clocks())
@@ -239,11 +273,11 @@ class Schedule:
         return recorded
 
     def _advance(self, tick: int) -> None:
-        """The batch advanced to ``tick``, every going run's banks sampled every ``every`` ticks and at the end."""
-        if tick <= self.now or not self.driver.going():
-            return
-        samples = self.driver.batch.advance_sampled(tick - self.now, self.every, self.driver.on_tick)
-        self.now = tick
-        for r, clocks in enumerate(self._clocks()):
-            if clocks is not None:
-                clocks.sampled(*samples[r])
+        """The batch advanced to ``tick`` a grid interval at a time, every going run's banks sampled every ``every``
+        ticks (and where its windows end or start)."""
+        while self.now < tick and self.driver.going():
+            samples = self.driver.batch.advance_sampled(self.grid, self.grid, self.driver.on_tick)
+            self.now += self.grid
+            for r, clocks in enumerate(self._clocks()):
+                if clocks is not None:
+                    clocks.sampled(*samples[r], self.now % self.every == 0)
