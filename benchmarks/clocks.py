@@ -2,8 +2,9 @@
 clocks").
 
 Chain-2 and chain-3 on the default physics and sensor, 100 learning steps, a few seeds: final Ubar (mm/cycle, the
-measured velocity over the last 10 steps) and final true Ubar of Thermal learners on one shared clock, with 1% clock
-drift and offsets uniform over a whole step, and of the random learner (no learning) with those clocks. Prints a
+measured velocity over the last 10 steps) and final true Ubar of Thermal learners on one shared clock, with offsets
+uniform over a whole step, with 0.1% and 1% clock drift, with 1% drift and the offsets, and of the random learner (no
+learning) on one clock and on those clocks. Prints a
 markdown table; ``--seeds`` and ``--steps`` shorten it.
 
     PYTHONPATH=. python benchmarks/clocks.py [--seeds 4] [--steps 100]
@@ -23,10 +24,15 @@ from morphbench.params import EnvironmentParams
 from morphbench.shapes import load_shape
 
 SHAPES = Path(__file__).resolve().parents[1] / "shapes"
+OWN = EnvironmentParams(clock_drift=0.01, clock_offset=1.0)
 CONDITIONS = {
     "thermal, one clock": ("thermal", EnvironmentParams()),
-    "thermal, own clocks": ("thermal", EnvironmentParams(clock_drift=0.01, clock_offset=1.0)),
-    "random, own clocks": ("random", EnvironmentParams(clock_drift=0.01, clock_offset=1.0)),
+    "thermal, offsets over a step only": ("thermal", EnvironmentParams(clock_offset=1.0)),
+    "thermal, 0.1% drift only": ("thermal", EnvironmentParams(clock_drift=0.001)),
+    "thermal, 1% drift only": ("thermal", EnvironmentParams(clock_drift=0.01)),
+    "thermal, 1% drift and offsets": ("thermal", OWN),
+    "random, one clock": ("random", EnvironmentParams()),
+    "random, 1% drift and offsets": ("random", OWN),
 }
 
 

@@ -239,3 +239,21 @@ def test_runs_and_scans_keep_their_ids_while_the_clocks_are_off_and_scans_refuse
     with pytest.raises(ConfigError, match=r"scan\[1\].environment.clock_drift: expected 0 in a scan"):
         load_suite(write_suite(tmp_path, text.replace("environment = {friction_scale = 1.5}",
                                                       "environment = {clock_drift = 0.01}"), "scan.toml"))
+
+
+@pytest.mark.parametrize("physics", [QUASISTATIC_PHYSICS, FAST_PHYSICS], ids=["quasistatic", "pybullet-fast"])
+def test_the_own_clocks_timeline_with_one_clock_is_the_shared_clock_loop(physics):
+    """Clocks 1e-12 apart take the own-clock timeline (unit by unit, a fixed grid, banks never reset) and must give
+    what the shared clock's loop gives: the same trials and decisions, velocities equal to rounding."""
+    steps = 12 if physics is QUASISTATIC_PHYSICS else 3
+    base = RunConfig(shape=CHAIN_3 if physics is QUASISTATIC_PHYSICS else CHAIN_2, steps=steps, seed=2, sensor=IDEAL,
+                     physics=physics, environment=EnvironmentParams(noise=0.2))
+    shared = run(base)
+    own = run(dataclasses.replace(base, environment=dataclasses.replace(base.environment, clock_drift=1e-12)))
+    a, b = shared.units(), own.units()
+    for column in ("phase_tried", "phase_kept", "accepted", "position", "piece"):
+        assert np.array_equal(a[column].to_numpy(), b[column].to_numpy()), column
+    for column in ("u_measured", "u_true", "u_memory"):
+        np.testing.assert_allclose(b[column], a[column], rtol=0, atol=1e-7)  # mm/cycle
+    np.testing.assert_allclose(own.steps().time_s, shared.steps().time_s, rtol=1e-12)
+    assert not np.array_equal(a.u_true.to_numpy(), b.u_true.to_numpy())  # it did take the other timeline
