@@ -257,3 +257,45 @@ def test_the_own_clocks_timeline_with_one_clock_is_the_shared_clock_loop(physics
         np.testing.assert_allclose(b[column], a[column], rtol=0, atol=1e-7)  # mm/cycle
     np.testing.assert_allclose(own.steps().time_s, shared.steps().time_s, rtol=1e-12)
     assert not np.array_equal(a.u_true.to_numpy(), b.u_true.to_numpy())  # it did take the other timeline
+
+
+@pytest.mark.parametrize("name", ["thermal", "flaky", "random"])
+def test_units_stepped_one_by_one_learn_as_units_stepped_together(name):
+    """Per-unit controllers (built-in arrays and plug-in objects) take the units whose step it is (``units``): each
+    unit's ends and starts interleaved with the others' (as on clocks of their own) give every unit the trials,
+    decisions and memory it has when all step together, a dead unit's included."""
+    from morphbench.learning import load_learner_class
+    from morphbench.learning.plugins import Decentralized, make_controller, make_learners
+
+    cls, params, n = load_learner_class(name), LearnerParams(), 4
+    together, arrays, objects = (make_controller(cls, params, 3, n), make_controller(cls, params, 3, n),
+                                 Decentralized(make_learners(cls, params, 3, n)))
+    for controller in (together, arrays, objects):
+        controller.initial()
+    order = np.random.default_rng(0).permutation(n)
+
+    def velocity(trial):
+        return 3.0 * np.sin(2 * np.pi * trial)
+
+    history = []  # the shared clock's (tried, accepted, kept, memory) per step
+    for step in range(25):
+        alive = np.arange(n) != 2 if step >= 10 else np.ones(n, dtype=bool)
+        tried = together.propose(step, alive)
+        accepted, kept = together.update(step, velocity(tried), alive)
+        history.append((tried, accepted, kept, together.memory(), alive))
+    for controller in (arrays, objects):
+        trials = np.zeros(n)
+        for step in range(26):  # each unit in turn ends step - 1 (its update), then starts step (its proposal)
+            got_accepted, got_kept = np.zeros(n, dtype=bool), np.zeros(n)
+            for unit in order:
+                due = np.arange(n) == unit
+                if step > 0:
+                    tried, accepted, kept, memory, alive = history[step - 1]
+                    result = controller.update(step - 1, velocity(trials), alive, units=due)
+                    got_accepted[unit], got_kept[unit] = result[0][unit], result[1][unit]
+                if step < 25:
+                    trials[unit] = controller.propose(step, history[step][4], units=due)[unit]
+                    assert trials[unit] == history[step][0][unit], (step, unit)
+            if step > 0:
+                assert np.array_equal(got_accepted, accepted) and np.array_equal(got_kept, kept), step
+                assert np.array_equal(controller.memory(), memory, equal_nan=True), step
