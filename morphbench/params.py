@@ -72,6 +72,9 @@ within one tick, so the schedule is not resolved (and a phase shorter than a tic
 MAX_TICKS_PER_ADVANCE = 2_000_000
 """physics ticks in one stretch of warm-up, discarded or measured cycles at most: the pressures of a stretch are
 computed at once (8 bytes per tick and bellows per array), so 2 million ticks is 16 MB per bellows."""
+MAX_CLOCK_DRIFT = 0.05
+"""a unit's clock rate error at most (EnvironmentParams.clock_drift): 5% is a free-running oscillator at its worst;
+more and a unit's learning step would be another number of cycles, not the same step on a wrong clock."""
 MAX_FIELD_WAVES = 1000
 """friction field period / correlation_length at most: the field holds one wave per ratio unit and evaluates them
 on 2048 points to normalise (1000 waves are 16 MB)."""
@@ -331,6 +334,17 @@ class EnvironmentParams:
     friction_field: FrictionFieldParams = field(default_factory=FrictionFieldParams)
     ground: GroundParams = field(default_factory=lambda: GroundParams())
     """the texture optical sensors look at (and videos show)."""
+    clock_drift: float = param(0.0, between(0, MAX_CLOCK_DRIFT), "fraction of the cycle time")
+    """each unit's own clock runs at its own rate: its pump period is cycle_time * (1 + e), e drawn per unit uniform
+    over [-clock_drift, clock_drift] from the run's seed (a stream of its own, streams.CLOCK_STREAM), from 0 (one
+    shared clock) to 0.05; a crystal is off by tens of ppm (1e-5), an RC oscillator by about 1%. The phase between
+    two units then drifts by (e_i - e_j) cycles per cycle unless their learners hold it, and a unit measures over
+    cycles_per_step of its own cycles (docs/sensing.md, "Units with their own clocks")."""
+    clock_offset: float = param(0.0, between(0, 1), "fraction of a learning step")
+    """each unit starts its learning steps at its own moment: offset o drawn per unit uniform over [0, clock_offset]
+    of a learning step ((discard_cycles + cycles_per_step) cycles) from the same stream; 0 is every unit changing
+    phase at once. A unit's measurement window then overlaps its neighbours' phase changes. Per-unit learners only
+    (a centralized controller measures every unit at once)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -486,8 +500,9 @@ def check_quasistatic_friction(shape: Any, environment: EnvironmentParams, sourc
 def check_run(config: Any, source: str) -> None:
     """ConfigError naming ``source`` unless the fields of a RunConfig fit together: steps and seed in range, the pump
     and the vent phase each spanning MIN_TICKS_PER_PHASE physics ticks, a stretch of cycles (warm-up, discarded,
-    measured) at most MAX_TICKS_PER_ADVANCE ticks, the friction field at most MAX_FIELD_WAVES waves per period, and on
-    the quasi-static backend friction within the model's range (``check_quasistatic_friction``)."""
+    measured) at most MAX_TICKS_PER_ADVANCE ticks, the friction field at most MAX_FIELD_WAVES waves per period, a
+    clock drift whose fast clocks still measure within their step, and on the quasi-static backend friction within
+    the model's range (``check_quasistatic_friction``)."""
     check_rule(STEPS, "", config.steps, source, "steps")
     check_rule(SEED, "", config.seed, source, "seed")
     actuator, physics, learner = config.shape.actuator, config.physics, config.learner_params

@@ -26,3 +26,7 @@ OPTICAL_STREAM = 5
 
 CONTROLLER_STREAM = 6
 """``[run seed, 6]``: a centralized controller's draws (morphbench.learning.controllers.controller_rng)."""
+
+CLOCK_STREAM = 7
+"""``[run seed, 7]``: every unit's clock, its rate error then its offset, one double each per unit
+(morphbench.experiment.clocks)."""

@@ -10,7 +10,7 @@ PACKAGE = Path(streams.__file__).parent
 
 def test_stream_ids_are_distinct():
     ids = {name: value for name, value in vars(streams).items() if name.endswith("_STREAM")}
-    assert len(set(ids.values())) == len(ids) == 7
+    assert len(set(ids.values())) == len(ids) == 8
 
 
 def test_no_module_seeds_a_stream_with_a_literal_id():

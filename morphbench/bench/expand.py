@@ -16,7 +16,8 @@ from typing import Any
 from morphbench import params as P
 from morphbench.bench.aliases import rename
 from morphbench.bench.cost import run_cost
-from morphbench.bench.identity import config_identity, environment_id, shape_id, shape_identity, stable_hash
+from morphbench.bench.identity import (config_identity, environment_id, environment_identity, shape_id,
+                                       shape_identity, stable_hash)
 from morphbench.bench.model import SCAN_PART_POINTS, Experiment, RunSpec, ScanSpec
 from morphbench.errors import ConfigError
 from morphbench.experiment.config import run_config_from_table
@@ -230,6 +231,10 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
         raise ConfigError(src, f"{where}.environment.noise", "no noise in a scan's environment: scans measure the "
                                                               "true velocity", environment_table["noise"])
     environment = params_from_table(P.EnvironmentParams, environment_table, src, f"{where}.environment")
+    for key in ("clock_drift", "clock_offset"):
+        if getattr(environment, key):
+            raise ConfigError(src, f"{where}.environment.{key}", "0 in a scan: a scan measures fixed phases, on one "
+                              "clock", getattr(environment, key))
     damage = None
     if "damage" in table:
         damage = parse_event(table["damage"], src, f"{where}.damage", shape.n_units, len(shape.links), kind="damage")
@@ -242,7 +247,7 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
     identity = {"shape": shape_identity(shape), "resolution": resolution, "samples": samples if sampled else None,
                 "seed": seed if sampled else None, "cycles": cycles, "discard": discard,
                 "physics": dataclasses.asdict(P.PHYSICS_PRESETS[preset]), "part_points": SCAN_PART_POINTS,
-                "environment": dataclasses.asdict(environment)}  # the default one keeps earlier scans' ids
+                "environment": environment_identity(environment)}  # the default one keeps earlier scans' ids
     if damage is not None:  # a healthy scan keeps the id it had before scans could be damaged
         identity["damage"] = {"unit": damage.unit, "mode": damage.mode}
     scan_id = stable_hash(identity)

@@ -36,7 +36,8 @@ except ImportError as exc:  # one line that says what to install, not a tracebac
     raise ImportError(f"morphbench.envs needs the rl extra: pip install 'morphbench[rl]' ({exc})", name=exc.name) \
         from None
 
-from morphbench.errors import ActionError, EpisodeOver, PhysicsError
+from morphbench.errors import ActionError, ConfigError, EpisodeOver, PhysicsError
+from morphbench.experiment.clocks import clocked
 from morphbench.experiment.config import load_run_config
 from morphbench.experiment.records import RunRecords
 from morphbench.experiment.driver import Driver
@@ -80,6 +81,9 @@ def env_config(source: RunConfig | str | Path, steps: int | None, physics: str |
     config = dataclasses.replace(config, learner=learner_spec(Agent), steps=config.steps if steps is None else steps,
                                  physics=config.physics if physics is None else physics)
     check_rule(COUNT, "", config.steps, SOURCE, "steps")  # an episode needs a learning step
+    if clocked(config.environment):  # an agent acts on every unit at once, once per step
+        raise ConfigError(SOURCE, "environment.clock_drift and clock_offset", "0 (units on clocks of their own step "
+                          "at their own moments, not the environment's)")
     return config
 
 

@@ -20,6 +20,7 @@ from typing import Callable
 
 import numpy as np
 
+from morphbench.experiment.clocks import Schedule, clocked
 from morphbench.experiment.records import RunRecords
 from morphbench.experiment.run import RunConfig, RunLoop
 from morphbench.learning import Controller, load_learner_class, make_controller
@@ -63,17 +64,23 @@ class Driver:
         self.ticks = (some.warmup_ticks, some.discard_ticks, some.measured_ticks) if some else (0, 0, 0)
         world = self.batch.worlds[0]
         self.observe = (lambda k: on_tick(world)) if on_tick is not None else None
+        self.schedule = Schedule(self) if clocked(first.environment) else None
+        """the timeline of units with clocks of their own (experiment.clocks); None: one clock, the loop below."""
 
     def _each(self, action, items) -> dict:
         """``action(index, item)`` for every run still going, by index; a run whose action raises stops there."""
         done = {}
         for index, item in enumerate(items):
             if self.outcome[index] is None:
-                try:
-                    done[index] = action(index, item)
-                except (Exception, SystemExit) as exc:  # the run's failure, as run() raises it
-                    self.outcome[index] = exc
+                self.guard(index, lambda: done.__setitem__(index, action(index, item)))
         return done
+
+    def guard(self, index: int, action) -> None:
+        """``action()`` for run ``index``; if it raises, that run stops there."""
+        try:
+            action()
+        except (Exception, SystemExit) as exc:  # the run's failure, as run() raises it
+            self.outcome[index] = exc
 
     def going(self) -> bool:
         return any(outcome is None for outcome in self.outcome)
@@ -83,13 +90,19 @@ class Driver:
         self._each(lambda i, loop: loop.world.set_phases(loop.kept), self._loops())
         if self.going():
             self.batch.advance(self.ticks[0], self.observe)
+        if self.schedule is not None:
+            self.schedule.begin()
 
     def _loops(self) -> list[RunLoop | None]:
         return [self.loops.get(i) for i in range(len(self.configs))]
 
     def step(self, step: int) -> dict[int, np.ndarray]:
         """Learning step ``step`` of every run still going, every phase in order, recorded; per run by index its
-        units' measured velocities (mm/cycle)."""
+        units' measured velocities (mm/cycle). Units with clocks of their own (``schedule``) end a step inside the
+        next one's span: the velocities are then those of the step recorded in this one (``step - 1``; the last
+        step's records too, at the last)."""
+        if self.schedule is not None:
+            return self.schedule.step(step)
         loops, records = self._loops(), self.records
         applied = self._each(lambda i, loop: loop.apply_events(step), loops)
         tried = self._each(lambda i, loop: loop.propose(step), loops)

@@ -64,20 +64,23 @@ class UnitArrays(Controller):
     def initial(self) -> np.ndarray:
         return self.phase.copy()
 
-    def propose(self, step: int, alive: np.ndarray) -> np.ndarray:
-        trial = self.phase.copy()  # a dead unit keeps its phase; a Metropolis unit's first trial is its phase
+    def propose(self, step: int, alive: np.ndarray, units: np.ndarray | None = None) -> np.ndarray:
+        # a dead unit keeps its phase; a Metropolis unit's first trial is its phase; a unit not stepping its trial
+        trial = self.phase.copy() if units is None else np.where(units, self.phase, self.trial)
+        due = alive if units is None else alive & units
         if self.rule == "random":
-            asking = np.flatnonzero(alive)
+            asking = np.flatnonzero(due)
             trial[asking] = self.draws.next(asking)
         else:
-            asking = np.flatnonzero(alive & self.measured)
+            asking = np.flatnonzero(due & self.measured)
             eps = -1.0 + 2.0 * self.draws.next(asking)
             trial[asking] = wrap_phases(self.phase[asking] + eps * self.step_size[asking])
         self.trial = trial
         return trial.copy()
 
-    def update(self, step: int, u_measured: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        live = np.flatnonzero(alive)
+    def update(self, step: int, u_measured: np.ndarray, alive: np.ndarray, units: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
+        live = np.flatnonzero(alive if units is None else alive & units)
         velocity = np.asarray(u_measured, dtype=float)
         accepted = np.zeros(len(self.phase), dtype=bool)
         if self.rule == "random":

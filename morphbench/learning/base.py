@@ -65,7 +65,10 @@ class Controller(ABC):
 
     Protocol: ``initial()`` once (the phases the warm-up runs at), then per learning step ``propose(step, alive)``
     and ``update(step, u_measured, alive)``, strictly alternating. Arrays are per unit, in unit order; ``alive[u]`` is
-    False for a unit killed by a damage event: it keeps its kept phase and measures NaN. The per-unit learners run as
+    False for a unit killed by a damage event: it keeps its kept phase and measures NaN. A per-unit controller also
+    takes ``units`` (a boolean mask) in both: only those units step then, the others' pending trials are kept (units
+    on clocks of their own step at their own moments, morphbench.experiment.clocks); the strict alternation then
+    holds unit by unit. The per-unit learners run as
     one (morphbench.learning.plugins.Decentralized); centralized ones see every unit (morphbench.learning.controllers).
     """
 

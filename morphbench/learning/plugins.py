@@ -193,12 +193,15 @@ class Decentralized(Controller):
         self.kept = np.array([kept_phase(learner, u, 0) for u, learner in enumerate(self.learners)], dtype=float)
         return self.kept
 
-    def propose(self, step: int, alive: np.ndarray) -> np.ndarray:
-        # a dead unit's learner stops: it keeps its phase and is not asked
+    def propose(self, step: int, alive: np.ndarray, units: np.ndarray | None = None) -> np.ndarray:
+        # a dead unit's learner stops: it keeps its phase and is not asked (nor is one not stepping now)
+        alive = alive if units is None else alive & units
         return np.array([proposed_phase(learner, u, step) if alive[u] else self.kept[u]
                          for u, learner in enumerate(self.learners)], dtype=float)
 
-    def update(self, step: int, u_measured: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def update(self, step: int, u_measured: np.ndarray, alive: np.ndarray, units: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
+        alive = alive if units is None else alive & units
         accepted = np.array([update_accepted(learner, u, step, float(u_measured[u])) if alive[u] else False
                              for u, learner in enumerate(self.learners)])
         self.kept = np.array([kept_phase(learner, u, step) for u, learner in enumerate(self.learners)], dtype=float)

@@ -96,6 +96,15 @@ class Copy:
         return self.world.link_stiffness[self._links:self._links + len(self.shape.links)]
 
     @property
+    def periods(self) -> np.ndarray:
+        return self.world.periods[self._units:self._units + self.shape.n_units]
+
+    def set_clock_rates(self, errors) -> None:
+        if np.shape(errors) != (self.shape.n_units,):
+            raise ValueError(f"expected {self.shape.n_units} clock rate errors, got {np.shape(errors)}")
+        self.world.set_clock_rates(errors, self._units)
+
+    @property
     def damage(self) -> list[str]:
         return self.world.damage[self._units:self._units + self.shape.n_units]
 

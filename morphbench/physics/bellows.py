@@ -58,6 +58,8 @@ class Bellows:
         """current pressure (0..1) of each bellows."""
         self.phases = np.zeros(shape.n_units)
         """current phase (0..1) of each active unit's pump."""
+        self.periods = np.full(shape.n_units, shape.actuator.cycle_time)
+        """s, each active unit's pump period: the cycle time on its own clock (``set_clock_rates``)."""
         self.damage = ["" for _ in shape.units]
         """per active unit (unit order): '' (healthy) or a mode of DAMAGE_MODES."""
         self.link_stiffness = np.full(len(shape.links), shape.actuator.stiffness)
@@ -81,6 +83,14 @@ class Bellows:
             raise ValueError(f"expected {self.phases.shape[0]} phases, got {phases.shape}")
         self.phases = np.mod(phases, 1.0)
 
+    def set_clock_rates(self, errors, first: int = 0) -> None:
+        """The clock rate error e of the active units from ``first`` on (unit order): each one's pump period becomes
+        cycle_time * (1 + e)."""
+        errors = np.asarray(errors, dtype=float)
+        if errors.ndim != 1 or first + len(errors) > len(self.periods):
+            raise ValueError(f"expected at most {len(self.periods) - first} clock rate errors, got {errors.shape}")
+        self.periods[first:first + len(errors)] = self.shape.actuator.cycle_time * (1.0 + errors)
+
     def ticks_in(self, duration: float) -> int:
         """How many control ticks make ``duration`` seconds (durations are whole numbers of ticks)."""
         return max(0, round(duration / self.tick))
@@ -88,8 +98,9 @@ class Bellows:
     def _pressures(self, start: float, n_ticks: int, pumps: bool) -> np.ndarray:
         """(n_ticks, n_links) pressure of each bellows at the end of each coming tick (0 with ``pumps`` off)."""
         # A passive link has no pump: its pressure trajectory is computed (phase 0) and then zeroed.
-        trajectory = pressure_trajectory(self.pressure, self.phases[np.maximum(self.link_units, 0)], start, self.tick,
-                                         n_ticks, self.shape.actuator)
+        driver = np.maximum(self.link_units, 0)
+        trajectory = pressure_trajectory(self.pressure, self.phases[driver], start, self.tick, n_ticks,
+                                         self.shape.actuator, self.periods[driver])
         return trajectory * (self._actuated if pumps else 0.0)
 
     def _rest_lengths(self, trajectory: np.ndarray) -> np.ndarray:
@@ -110,8 +121,7 @@ class Bellows:
     def _pumping(self, start: float, n_ticks: int) -> np.ndarray:
         """(n_ticks, n_units) whether each unit's pump runs at the start of each coming tick (a dead one never)."""
         t = start + self.tick * np.arange(n_ticks)
-        actuator = self.shape.actuator
-        pumping = np.mod(t[:, None] / actuator.cycle_time - self.phases, 1.0) < actuator.alpha
+        pumping = np.mod(t[:, None] / self.periods - self.phases, 1.0) < self.shape.actuator.alpha
         return pumping & np.array([d != "dead" for d in self.damage])
 
     def set_damage(self, unit: int, mode: str) -> None:

@@ -1,6 +1,7 @@
 """The pump schedule and the bellows' first-order pressure, integrated exactly over control ticks (pure numpy).
 
-The pump of a unit with phase phi is on while ``((t / cycle_time) - phi) mod 1 < alpha``. Pressure relaxes towards 1
+The pump of a unit with phase phi is on while ``((t / period) - phi) mod 1 < alpha``, its period the cycle time
+(or its own clock's, ``EnvironmentParams.clock_drift``). Pressure relaxes towards 1
 with time constant ``tau_inflate`` while the pump runs and towards 0 with ``tau_vent`` otherwise. Switches are taken
 at their exact times inside a tick, so velocity varies smoothly with phase instead of in steps of one tick.
 """
@@ -19,22 +20,25 @@ def pump_on(t: float, phases: np.ndarray, actuator: ActuatorParams) -> np.ndarra
 
 
 def pressure_trajectory(
-    pressure: np.ndarray, phases: np.ndarray, t0: float, tick: float, n_ticks: int, actuator: ActuatorParams
+    pressure: np.ndarray, phases: np.ndarray, t0: float, tick: float, n_ticks: int, actuator: ActuatorParams,
+    periods: np.ndarray | None = None
 ) -> np.ndarray:
-    """Pressure of each bellows at the end of each of ``n_ticks`` ticks of ``tick`` s starting at time ``t0``.
+    """Pressure of each bellows at the end of each of ``n_ticks`` ticks of ``tick`` s starting at time ``t0``;
+    ``periods`` (s), each pump's cycle (the actuator's cycle time by default).
 
     Returns an (n_ticks, n) array. A tick must be shorter than both the on and the off part of a cycle, so each
     pump switches at most once per tick.
     """
-    T, alpha = actuator.cycle_time, actuator.alpha
-    if not tick < min(alpha, 1 - alpha) * T:
+    alpha = actuator.alpha
+    periods = np.full(len(phases), actuator.cycle_time) if periods is None else np.asarray(periods, dtype=float)
+    if len(periods) and not tick < min(alpha, 1 - alpha) * periods.min():
         raise ValueError(f"control tick {tick} s must be shorter than the pump's on and off times")
     return _trajectory(np.asarray(pressure, dtype=float), np.asarray(phases, dtype=float), float(t0), float(tick),
-                       int(n_ticks), float(T), float(alpha), float(actuator.tau_inflate), float(actuator.tau_vent))
+                       int(n_ticks), periods, float(alpha), float(actuator.tau_inflate), float(actuator.tau_vent))
 
 
 @numba.njit(cache=True)
-def _trajectory(p0, phases, t0, tick, n_ticks, T, alpha, tau_inflate, tau_vent):
+def _trajectory(p0, phases, t0, tick, n_ticks, periods, alpha, tau_inflate, tau_vent):
     """Per tick and bellows: the time spent in the state the tick starts in, then in the other; each part maps
     p -> target + (p - target) * decay, composed into one affine map, applied in sequence (compiled: a tick without
     a switch, nearly all of them, costs one multiply-add)."""
@@ -45,6 +49,7 @@ def _trajectory(p0, phases, t0, tick, n_ticks, T, alpha, tau_inflate, tau_vent):
     for k in range(n_ticks):
         start = t0 + tick * k
         for i in range(n):
+            T = periods[i]
             position = (start / T - phases[i]) % 1.0  # in cycles since the pump last switched on
             on = position < alpha
             first = min(((alpha - position) if on else (1.0 - position)) * T, tick)

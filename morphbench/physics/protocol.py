@@ -40,6 +40,8 @@ class WorldInterface(Protocol):
     """per link, the unit (unit order) whose pump drives it; -1 for a passive link."""
     phases: np.ndarray
     """per unit (unit order), its pump's phase in [0, 1)."""
+    periods: np.ndarray
+    """s, per unit (unit order), its pump's period: the cycle time, or its own clock's (``set_clock_rates``)."""
     pressure: np.ndarray
     """per link, its bellows' pressure (0..1) now."""
     damage: list[str]
@@ -53,6 +55,9 @@ class WorldInterface(Protocol):
 
     def ticks_in(self, duration: float) -> int:
         """How many ticks make ``duration`` seconds."""
+
+    def set_clock_rates(self, errors) -> None:
+        """Every active unit's clock rate error e (unit order): its pump period is cycle_time * (1 + e) from now."""
 
     def set_phases(self, phases) -> None:
         """Every active unit's phase (unit order, cycles, wrapped into [0, 1))."""
