@@ -221,3 +221,18 @@ def test_a_stack_gets_one_line_for_a_top_view_before_anything_is_simulated(tmp_p
     assert err.startswith("morphbench: error: --view: top: expected a shape in one layer on the ground")
     assert "\n" not in err
     assert not out.exists() and not (tmp_path / "v.mp4").exists()
+
+
+def test_a_unit_driving_several_bellows_shows_the_fullest(tmp_path):
+    sheet = shape_from_table({"assembly": {"generator": "grid", "rows": 2, "columns": 2, "dummy": False,
+                                           "actuated_axes": ["x", "y"]}}, source="test")
+    world = FakeWorld(sheet, sheet.placed_positions())
+    world.pressure = np.linspace(0.1, 0.9, len(sheet.links))
+    recorder = TopDownRecorder(world, tmp_path / "v.mp4", VideoParams(view="top"))
+    try:
+        links = [np.flatnonzero(world.link_units == k) for k in range(sheet.n_units)]
+        expected = [world.pressure[own].max() if len(own) else 0.0 for own in links]
+        assert max(len(own) for own in links) == 2 and min(len(own) for own in links) == 0
+        np.testing.assert_allclose(recorder.unit_values(), expected)
+    finally:
+        recorder.abort()

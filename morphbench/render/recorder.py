@@ -122,8 +122,11 @@ class Recorder:
         """Start recording ``world``: the subclass sets up its drawing after this."""
         self.world = world
         link_units = np.asarray(world.link_units)
-        self._driven = [np.flatnonzero(link_units == k) for k in range(world.shape.n_units)]
-        """per unit (world order), the links its pump drives: its colour is their highest pressure."""
+        driven = np.flatnonzero(link_units >= 0)
+        self._driven = driven[np.argsort(link_units[driven], kind="stable")]
+        """the driven links grouped by their unit (world order): a unit's colour is their highest pressure."""
+        self._driving, self._first_link = np.unique(link_units[self._driven], return_index=True)
+        """the units that drive a link, and where each one's links start in ``_driven``."""
         positions, _ = world.poses()
         self._target = positions.mean(axis=0)
         self._target_time = world.time
@@ -179,8 +182,11 @@ class Recorder:
         world = self.world
         if self.params.colour == "phase":
             return np.mod(np.asarray(self.current_status().get("kept", world.phases), dtype=float), 1.0)
-        pressure = np.asarray(world.pressure, dtype=float)
-        return np.array([pressure[links].max() if len(links) else 0.0 for links in self._driven])
+        values = np.zeros(world.shape.n_units)
+        if len(self._driven):
+            pressure = np.asarray(world.pressure, dtype=float)[self._driven]
+            values[self._driving] = np.maximum.reduceat(pressure, self._first_link)
+        return values
 
     def unit_damaged(self) -> np.ndarray:
         """Per unit (the world's order), whether it is drawn black: named in ``damaged`` or damaged in the world."""
