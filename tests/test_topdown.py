@@ -236,3 +236,12 @@ def test_a_unit_driving_several_bellows_shows_the_fullest(tmp_path):
         np.testing.assert_allclose(recorder.unit_values(), expected)
     finally:
         recorder.abort()
+
+
+def test_phase_maps_of_a_consolidated_suite_run_read_its_rows_of_the_units_table(reference, tmp_path):
+    _, out, outcome = reference
+    run_id = outcome.tables["runs"].run_id.iloc[0]
+    assert not (out / "runs" / run_id / "units.parquet").exists()  # its rows are in the consolidated tables only
+    figure = tmp_path / "phases.png"
+    assert main(["render", str(out / "runs" / run_id), "--phases", "0,4", "--out", str(figure)]) == 0
+    assert cv2.imread(str(figure)) is not None
