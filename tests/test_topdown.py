@@ -245,3 +245,25 @@ def test_phase_maps_of_a_consolidated_suite_run_read_its_rows_of_the_units_table
     figure = tmp_path / "phases.png"
     assert main(["render", str(out / "runs" / run_id), "--phases", "0,4", "--out", str(figure)]) == 0
     assert cv2.imread(str(figure)) is not None
+
+
+def test_the_side_view_colours_units_by_kept_phase_too(tmp_path):
+    import pybullet as pb
+
+    from morphbench.physics import World
+    from morphbench.render import VideoRecorder
+    from morphbench.render.video import COLOUR_LEVELS as SIDE_LEVELS
+
+    chain = load_shape(SHAPES_DIR / "chain-2.toml")
+    with World(chain) as world:
+        recorder = VideoRecorder(world, tmp_path / "v.mp4", VideoParams(width=64, height=48, colour="phase"))
+        try:
+            kept = np.array([0.25, 0.75])
+            recorder.set_status(kept=kept)
+            recorder.render()
+            scene = world.scene
+            for k, body in enumerate(chain.units):
+                rgba = pb.getVisualShapeData(scene.bodies[body], physicsClientId=scene.client)[0][7]
+                np.testing.assert_allclose(rgba[:3], phase_rgb(round(kept[k] * SIDE_LEVELS) / SIDE_LEVELS), atol=1e-6)
+        finally:
+            recorder.abort()

@@ -24,7 +24,6 @@ import numpy as np
 import pybullet as pb
 
 from morphbench.physics.geometry import body_shapes
-from morphbench.render.checks import check_output_path, check_video_params  # noqa: F401 (replay takes them here)
 from morphbench.render.ground import GroundRasteriser
 from morphbench.render.recorder import FILL, FOV, Recorder, font_scale, shape_extent
 from morphbench.shapes.colours import DAMAGED_RGBA, DUMMY_RGBA, pressure_rgb
