@@ -210,7 +210,7 @@ def test_run_and_render_write_a_top_view_video_and_phase_maps_of_a_small_sheet(t
     assert err.startswith("morphbench: error: --phases: 0,7: expected learning steps of this run, 0 to 2")
     assert "\n" not in err
     assert main(["render", str(run_dir), "--phases", "0", "--out", str(tmp_path / "phases.mp4")]) == 2
-    assert "a .png file name" in capsys.readouterr().err
+    assert "expected a file name ending in .png" in capsys.readouterr().err
 
 
 def test_a_stack_gets_one_line_for_a_top_view_before_anything_is_simulated(tmp_path, capsys):

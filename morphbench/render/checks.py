@@ -46,14 +46,16 @@ def resolve_view(shape, params: VideoParams, source: str = "--view") -> str:
     return "top"
 
 
-def check_output_path(path: str | os.PathLike, source: str = "--video") -> Path:
-    """The output file as a Path if a video can be written there: suffix .mp4 or .gif, in an existing writable
-    directory, not a directory itself. Otherwise a ConfigError naming ``source`` (the option it came from)."""
+def check_output_path(path: str | os.PathLike, source: str = "--video", formats: tuple[str, ...] = FORMATS) -> Path:
+    """The output file as a Path if it can be written there: a suffix of ``formats`` (a video's by default), in an
+    existing writable directory, not a directory itself. Otherwise a ConfigError naming ``source`` (the option it came
+    from)."""
     out = Path(path)
-    if out.suffix.lower() not in FORMATS:
-        raise ConfigError(source, str(path), "a video file name ending in .mp4 or .gif")
+    what = "a video file" if formats == FORMATS else "a file"
+    if out.suffix.lower() not in formats:
+        raise ConfigError(source, str(path), f"{what} name ending in {' or '.join(formats)}")
     if out.is_dir():
-        raise ConfigError(source, str(path), "a video file name (this is a directory)")
+        raise ConfigError(source, str(path), f"{what} name (this is a directory)")
     parent = out.parent
     if not parent.is_dir():
         raise ConfigError(source, str(path), f"a file in an existing directory ({parent} does not exist)")

@@ -161,11 +161,7 @@ def phase_maps(run_dir: str | os.PathLike, out_path: str | os.PathLike, steps: l
     map (``plots.phase_maps``). Read from its ``units.parquet``; nothing is simulated. ConfigError (naming --out,
     --phases or the file) for an output that is not a .png, a step the run does not have, a shape not in one layer
     or a units table without the columns."""
-    out = Path(out_path)
-    if out.suffix.lower() != ".png":
-        raise ConfigError("--out", str(out_path), "a .png file name for the phase maps of --phases")
-    if not out.parent.is_dir():
-        raise ConfigError("--out", str(out_path), f"a file in an existing directory ({out.parent} does not exist)")
+    out = check_output_path(out_path, "--out", (".png",))
     config, _ = load_run(run_dir)
     shape = config.shape
     resolve_view(shape, VideoParams(view="top"), "--phases")
