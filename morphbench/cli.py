@@ -85,10 +85,15 @@ def _parser() -> argparse.ArgumentParser:
     add_render_arguments(run)
     run.set_defaults(func=_warnings_unless_failed(_cmd_run))
 
-    render = sub.add_parser("render", help="replay a finished run from its records and render it to a video")
+    render = sub.add_parser("render", help="replay a finished run from its records and render it to a video, or "
+                                           "map its kept phases at chosen steps (--phases)")
     render.add_argument("run_dir", metavar="RUN_DIR",
                         help="a directory written by morphbench run, or a suite's run: RESULTS_DIR/runs/RUN_ID")
-    render.add_argument("--out", required=True, help="the video to write (.mp4 or .gif)")
+    render.add_argument("--out", required=True,
+                        help="the video to write (.mp4 or .gif), or with --phases the figure (.png)")
+    render.add_argument("--phases", type=_step_list, metavar="STEP,STEP,...",
+                        help="instead of a video, a PNG of the kept phases over the sheet at the end of these "
+                             "learning steps, one panel each (read from units.parquet; nothing is simulated)")
     render.add_argument("--quiet", action="store_true")
     add_render_arguments(render, output=False)
     render.set_defaults(func=_warnings_unless_failed(_cmd_render))
@@ -196,7 +201,7 @@ def _cmd_run(args) -> int:
     from morphbench.experiment import load_run_config, run
     from morphbench.experiment.config import check_events_happen
     from morphbench.learning import load_learner_class
-    from morphbench.render import VideoRecorder
+    from morphbench.render import open_recorder
 
     config = _with_options(load_run_config(resolve_shape_path(args.config), physics=args.physics), args)
     if args.steps is not None:
@@ -206,7 +211,7 @@ def _cmd_run(args) -> int:
     learner_name = config.learner.rsplit(":", 1)[-1].lower()
     # --out '' is refused (as bench refuses it), not taken for the default
     out = _run_dir(f"runs/{name}-{learner_name}-seed{config.seed}" if args.out is None else args.out, args.overwrite)
-    video = (VideoRecorder(None, check_path(args.video, "--video", room=TEMPORARY_NAME_ROOM),
+    video = (open_recorder(config.shape, check_path(args.video, "--video", room=TEMPORARY_NAME_ROOM),
                            video_params_from_args(args, config.steps))
              if args.video else nullcontext())
     title = f"{name}, {learner_name}, seed {config.seed}"
@@ -244,7 +249,13 @@ def _cmd_run(args) -> int:
 def _cmd_render(args) -> int:
     from tqdm import tqdm
 
-    from morphbench.render import render_run
+    from morphbench.render import phase_maps, render_run
+
+    if args.phases is not None:
+        with _replayable(args.run_dir, units=True) as run_dir:
+            path = phase_maps(run_dir, check_path(args.out, "--out", room=TEMPORARY_NAME_ROOM), args.phases)
+        print(f"phase maps in {path}")
+        return 0
 
     with tqdm(desc=f"replay {args.run_dir}", unit="step", disable=args.quiet) as bar:
         def progress(done, total):
@@ -257,16 +268,29 @@ def _cmd_render(args) -> int:
     return 0
 
 
-def _replayable(run_dir: str):
+def _replayable(run_dir: str, units: bool = False):
     """The directory to replay ``run_dir`` from: itself, or for a suite's run whose rows the consolidated tables
-    hold (``DIR/runs/<id>`` keeps only its result.json), a temporary one the results store gives."""
+    hold (``DIR/runs/<id>`` keeps only its result.json), a temporary one the results store gives (with its
+    units.parquet if ``units``)."""
     path = Path(run_dir)
     root = path.parent.parent
     if path.parent.name == "runs" and (root / "plan.json").is_file() and not (path / "steps.parquet").exists():
         from morphbench.bench.store import Store
 
-        return Store(root).replayable(path.name)
+        return Store(root).replayable(path.name, units=units)
     return nullcontext(run_dir)
+
+
+def _step_list(text: str) -> list[int]:
+    """'0,50,100' -> [0, 50, 100]: learning steps, each a whole number >= 0, in the order given."""
+    try:
+        steps = [int(part) for part in text.split(",")]
+    except ValueError:
+        steps = [-1]
+    if any(step < 0 for step in steps) or len(set(steps)) != len(steps):
+        raise argparse.ArgumentTypeError(f"expected learning steps STEP,STEP,... (whole numbers >= 0, each once), "
+                                         f"got {text!r}")
+    return steps
 
 
 def _cmd_scan(args) -> int:

@@ -116,6 +116,10 @@ InitialMemory = Literal["measure", "-inf", "zero"]
 INITIAL_MEMORY_CHOICES: tuple[str, ...] = get_args(InitialMemory)
 PhysicsBackend = Literal["auto", "pybullet", "quasistatic"]
 PHYSICS_BACKENDS: tuple[str, ...] = get_args(PhysicsBackend)
+VideoView = Literal["auto", "side", "top"]
+VIDEO_VIEWS: tuple[str, ...] = get_args(VideoView)
+VideoColour = Literal["pressure", "phase"]
+VIDEO_COLOURS: tuple[str, ...] = get_args(VideoColour)
 
 # --- the parameters ------------------------------------------------------------------------------------------------
 
@@ -454,7 +458,17 @@ class VideoParams:
     """s of simulated time, time constant of the camera's smoothing (two cycles by default, so it does not shake with
     each pump stroke)."""
     overlay: bool = param(True, BOOL)
-    """draw simulated time, learning step, Ubar and each unit's phase on the frames."""
+    """draw simulated time, learning step, Ubar and each unit's phase on the frames (the top view leaves the phases
+    out: its colours can show them)."""
+    view: VideoView = param("auto", Choices(VIDEO_VIEWS))
+    """'side': the 3-D camera (PyBullet's TinyRenderer) from the side and above; 'top': every body's footprint seen
+    from straight above, drawn with numpy (morphbench.render.topdown; shapes in one layer on the ground only), fast
+    for sheets of thousands of units; 'auto': top for one-layer shapes of more than ``render.checks.AUTO_TOP_UNITS``
+    units, side otherwise."""
+    colour: VideoColour = param("pressure", Choices(VIDEO_COLOURS))
+    """what a unit's colour shows: 'pressure', its bellows' pressure (blue empty, red full); 'phase', its kept phase
+    (the learner's, updated at the end of each learning step) on a cyclic colour map, so a travelling wave shows as
+    bands of hue."""
 
 
 # --- rules across fields: checked wherever a RunConfig is built -------------------------------------------------------

@@ -13,6 +13,10 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from morphbench.files import atomic_write  # noqa: E402
+from morphbench.shapes.colours import phase_rgb  # noqa: E402
+
+PHASE_MAP_COLUMNS = 4
+"""panels per row of a phase-map figure."""
 
 
 def learning_curve(steps: pd.DataFrame, units: pd.DataFrame, path: str | Path, title: str = "") -> Path:
@@ -111,6 +115,52 @@ def landscape(ax, table: pd.DataFrame, limit: float | None = None):
     ax.set_ylabel("dphi_3 (cycles)")
     ax.set_aspect("equal")
     return mesh
+
+
+def phase_maps(units: pd.DataFrame, half: np.ndarray, steps: list[int], path: str | Path, title: str = "") -> Path:
+    """Small multiples of the kept phases over a one-layer assembly, one panel per learning step of ``steps``: each
+    unit of ``units`` (a run's units table) at the end of that step, as its footprint (``half``: per place, the half
+    length and width, m) at its pose, coloured on the cyclic phase map (``colours.phase_rgb``: phases 0 and 1 alike).
+    Panels share their scale and limits, so motion between them shows."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import ListedColormap
+
+    shown = units[units.step.isin(steps)]
+    corners = {}
+    for step in steps:
+        rows = shown[shown.step == step]
+        h = half[rows.position.to_numpy() - 1]
+        angle = rows.heading_rad.to_numpy(dtype=float)
+        along = np.stack([np.cos(angle), np.sin(angle)], axis=1) * h[:, :1]
+        across = np.stack([-np.sin(angle), np.cos(angle)], axis=1) * h[:, 1:]
+        centre = rows[["x_m", "y_m"]].to_numpy(dtype=float)
+        corners[step] = (np.stack([centre + along + across, centre - along + across, centre - along - across,
+                                   centre + along - across], axis=1), rows.phase_kept.to_numpy(dtype=float))
+    every = np.concatenate([c.reshape(-1, 2) for c, _ in corners.values()])
+    low, high = every.min(axis=0), every.max(axis=0)
+    margin = 0.05 * max(high - low)
+    n_cols = min(len(steps), PHASE_MAP_COLUMNS)
+    n_rows = -(-len(steps) // n_cols)
+    aspect = (high[1] - low[1] + 2 * margin) / (high[0] - low[0] + 2 * margin)
+    fig, axes = plt.subplots(n_rows, n_cols, figsize=(3.2 * n_cols + 1, 3.2 * n_rows * min(max(aspect, 0.3), 2) + 0.6),
+                             sharex=True, sharey=True, squeeze=False, layout="constrained")
+    for ax, step in zip(axes.flat, steps):
+        polygons, phases = corners[step]
+        ax.add_collection(PolyCollection(polygons, facecolors=phase_rgb(phases), edgecolors="none"))
+        ax.set_title(f"step {step}", fontsize="medium")
+        ax.set_xlim(low[0] - margin, high[0] + margin)
+        ax.set_ylim(low[1] - margin, high[1] + margin)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("y (m)")
+    for ax in axes.flat[len(steps):]:
+        ax.axis("off")
+    cyclic = ListedColormap(phase_rgb(np.arange(256) / 256))
+    bar = fig.colorbar(plt.cm.ScalarMappable(plt.Normalize(0, 1), cyclic), ax=axes, shrink=0.8)
+    bar.set_label("kept phase (cycles; 0 = 1)")
+    fig.suptitle(title)
+    return save_figure(fig, path)
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:

@@ -381,10 +381,11 @@ class Store:
         return path
 
     @contextmanager
-    def replayable(self, run_id: str) -> Iterator[Path]:
+    def replayable(self, run_id: str, units: bool = False) -> Iterator[Path]:
         """A directory ``morphbench.render.render_run`` replays run ``run_id`` from (result.json and steps.parquet):
-        the run's own, or, consolidated, a temporary one with its result.json and its rows of steps.parquet (removed
-        after the block). ConfigError if the run is not done and sound."""
+        the run's own, or, consolidated, a temporary one with its result.json and its rows of steps.parquet (and of
+        units.parquet if ``units``: what ``render.phase_maps`` reads), removed after the block. ConfigError if the run
+        is not done and sound."""
         job = self.load("run", run_id)
         directory = self.job_dir("run", run_id)
         if job.status != "done":
@@ -395,7 +396,8 @@ class Store:
             return
         with tempfile.TemporaryDirectory(prefix=f"morphbench-{run_id}-") as folder:
             shutil.copyfile(directory / RESULT, Path(folder) / RESULT)
-            pq.write_table(job.tables["steps"], Path(folder) / "steps.parquet")
+            for name in ("steps", "units") if units else ("steps",):
+                pq.write_table(job.tables[name], Path(folder) / f"{name}.parquet")
             yield Path(folder)
 
     # --- a run's rows in the consolidated tables ---

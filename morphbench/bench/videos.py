@@ -6,7 +6,9 @@ Each experiment shows one run: the first seed of its first condition that finish
 so, whatever the consolidated tables hold). Its first learning
 steps are replayed (``morphbench.render.render_run`` on the run's result.json, which holds its configuration, and its
 steps: ``Store.replayable``; the replay is checked against the stored Ubar) up to the step that ends nearest
-``VIDEO_SECONDS`` of simulated time, at ``REPORT_VIDEO``'s small size, in H.264 (render.writers). A video whose run,
+``VIDEO_SECONDS`` of simulated time, at ``REPORT_VIDEO``'s small size, in H.264 (render.writers), in the view
+``VideoParams.view = "auto"`` gives its shape (from above for a one-layer sheet of more than 100 units:
+render.topdown). A video whose run,
 steps, parameters, morphbench version and encoder (PyAV or the OpenCV fallback) have not changed since it was rendered
 (``DIR/videos/<experiment>.json`` says what it shows) is reused: delete ``DIR/videos/`` to render again. Videos of
 experiments the plan no longer has are removed. A replay that fails is reported in its Video (``error``), never

@@ -92,6 +92,14 @@ class RunRecords:
     def last_ubar(self) -> float:
         return float(np.nanmean(self._units["u_measured"][-1]))
 
+    def last_kept_by_place(self) -> np.ndarray:
+        """The units' kept phases at the end of the last step, by the place each sits at (the world's unit order, as
+        ``world.phases``): what a video colours each unit's body by."""
+        kept, place = self._units["phase_kept"][-1], np.asarray(self._units["position"][-1]) - 1
+        by_place = np.empty(len(kept))
+        by_place[place] = kept
+        return by_place
+
     def units(self) -> pd.DataFrame:
         """Per step and unit (see the module docstring)."""
         if not self.n_steps:

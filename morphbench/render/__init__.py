@@ -2,15 +2,20 @@
 
     morphbench run SHAPE --video OUT.mp4       (a VideoRecorder as run()'s on_tick)
     morphbench render RUN_DIR --out OUT.mp4    (render_run: replay summary.json, check it against steps.parquet)
+    morphbench render RUN_DIR --phases 0,50 --out OUT.png   (phase_maps: the kept phases over the sheet)
 
-Besides physics/, this is the only package that talks to PyBullet (TinyRenderer, through the world's own client).
+Besides physics/, this is the only package that talks to PyBullet (TinyRenderer, through the world's own client; the
+top view needs none).
 
     checks.py     video parameters and output paths, checked before anything is simulated
-    video.py      VideoRecorder: the on_tick observer that renders frames (bodies, overlay) and owns the output file
-    ground.py     the checkered ground of a frame, drawn without the simulator
+    recorder.py   Recorder, what every video of a world shares (frame times, overlay, colours, the output file), and
+                  open_recorder, the one a shape's video uses (VideoParams.view)
+    video.py      VideoRecorder: the side view, bodies rendered by TinyRenderer
+    topdown.py    TopDownRecorder: the top view of a one-layer shape, every body's footprint drawn with numpy
+    ground.py     the checkered ground of a frame (side and top views), drawn without the simulator
     writers.py    MP4 in H.264 (PyAV; OpenCV without it) and GIF (Pillow) writers
     options.py    the --video options of the command line
-    replay.py     render_run: a finished run replayed into a video
+    replay.py     render_run: a finished run replayed into a video; phase_maps: its kept phases at chosen steps
 
 The names below are imported on first use (``morphbench.lazy``): the command line reads its video options without
 loading the simulator.
@@ -21,6 +26,8 @@ from morphbench.lazy import export_lazily
 export_lazily(__name__, {
     "check_output_path": "checks", "check_video_params": "checks",
     "add_render_arguments": "options", "video_params_from_args": "options",
-    "load_run": "replay", "render_run": "replay",
+    "load_run": "replay", "render_run": "replay", "phase_maps": "replay",
+    "Recorder": "recorder", "open_recorder": "recorder",
     "VideoRecorder": "video", "pressure_colour": "video",
+    "TopDownRecorder": "topdown",
 })

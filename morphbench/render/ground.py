@@ -2,7 +2,8 @@
 
 Every pixel that shows no body is mapped back to the ground plane through the camera's homography and shaded with a
 box-filtered checker (no aliasing near the horizon). TinyRenderer rasterises a textured ground over the whole frame
-at ~0.1 s a frame at 640x360; drawn here it costs a few milliseconds.
+at ~0.1 s a frame at 640x360; drawn here it costs a few milliseconds. Seen from straight above (``top_image``, the
+top view) the checker is the product of one square wave along the columns and one along the rows.
 """
 
 from __future__ import annotations
@@ -60,6 +61,18 @@ class GroundRasteriser:
         image[~ahead] = SKY
         self._cache = (key, image)
         return image
+
+
+def top_image(x: np.ndarray, y: np.ndarray, pixel: float) -> np.ndarray:
+    """(len(y), len(x), 3) uint8: the checkered ground seen from straight above, ``x`` (m) the ground coordinate of
+    each column's pixel centres, ``y`` (m) each row's, ``pixel`` (m) a pixel's side; each pixel shaded with the
+    checker averaged over its square (squares smaller than a pixel blend into grey instead of flickering)."""
+    half = pixel / 2
+    along_x, along_y = ((_square_wave_integral(np.asarray(c, dtype=np.float64) + half)
+                         - _square_wave_integral(np.asarray(c, dtype=np.float64) - half)) / pixel for c in (x, y))
+    dark, light = GROUND_GREYS
+    grey = ((dark + light) / 2 + (light - dark) / 2 * np.outer(along_y.astype(np.float32), along_x.astype(np.float32)))
+    return cv2.cvtColor(grey.astype(np.uint8), cv2.COLOR_GRAY2RGB)
 
 
 def _square_wave_integral(z: np.ndarray) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""Command-line options of the video: ``--video OUT`` and ``--video-width/-height/-fps/-speed/-steps``."""
+"""Command-line options of the video: ``--video OUT``, ``--video-width/-height/-fps/-speed/-steps``, ``--view`` and
+``--colour``."""
 
 from __future__ import annotations
 
@@ -30,13 +31,21 @@ def add_render_arguments(parser: argparse.ArgumentParser, output: bool = True) -
     group.add_argument("--video-steps", type=_step_range, default=defaults.steps, metavar="FIRST:LAST",
                        help="learning steps to show, inclusive: FIRST:LAST, FIRST: (to the end), :LAST or N "
                             "(default all)")
+    group.add_argument("--view", type=field_option(VideoParams, "view"), default=defaults.view,
+                       metavar="auto|side|top",
+                       help="side: the 3-D camera; top: every body's footprint from above (one-layer shapes; fast "
+                            "for thousands of units); auto: top beyond 100 units in one layer (default %(default)s)")
+    group.add_argument("--colour", type=field_option(VideoParams, "colour"), default=defaults.colour,
+                       metavar="pressure|phase",
+                       help="what a unit's colour shows: its bellows' pressure, or its kept phase on a cyclic colour "
+                            "map (default %(default)s)")
 
 
 def video_params_from_args(args: argparse.Namespace, last_step: int | None = None) -> VideoParams:
     """The VideoParams of parsed ``add_render_arguments`` options (ConfigError naming the option if out of range, or
     if ``--video-steps`` starts after ``last_step``, the run's last learning step, when it is known)."""
     params = VideoParams(width=args.video_width, height=args.video_height, fps=args.video_fps,
-                         speed=args.video_speed, steps=args.video_steps)
+                         speed=args.video_speed, steps=args.video_steps, view=args.view, colour=args.colour)
     check_video_params(params, cli=True)
     if last_step is not None and params.steps is not None and params.steps[0] > last_step:
         raise ConfigError("--video-steps", "steps", f"learning steps of this run, which ends at step {last_step}",

@@ -6,6 +6,8 @@ that stored it, the content's id), and ``steps.parquet`` must have the records' 
 run's steps, each once, and a float ``ubar``). The replay is then checked against the run's own records: if its
 learning steps do not give the Ubar that ``steps.parquet`` recorded (the learner changed since, or another PyBullet
 build), no video is written and a ConfigError says where they part.
+
+``phase_maps`` needs no replay: the kept phases and poses at the end of each step are in ``units.parquet``.
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ from morphbench.experiment import RunConfig, run
 from morphbench.experiment.config import run_config_from_dict
 from morphbench.files import is_dir, is_file
 from morphbench.params import VideoParams
-from morphbench.render.video import VideoRecorder, check_output_path, check_video_params
+from morphbench.render.checks import check_output_path, check_video_params, resolve_view
+from morphbench.render.recorder import open_recorder
 
 REPLAY_TOLERANCE = 1e-6
 """mm/cycle: a replayed step's Ubar may differ from the recorded one by this much (Parquet stores the exact float)."""
@@ -115,7 +118,7 @@ def render_run(run_dir: str | os.PathLike, out_path: str | os.PathLike, params: 
     total = last + 1
     replayed = []
 
-    with VideoRecorder(None, out_path, params, source="--out") as recorder:
+    with open_recorder(config.shape, out_path, params, source="--out") as recorder:
         def on_step(step, records):
             recorder.progress(step, records)
             if progress is not None:
@@ -146,3 +149,42 @@ def _check_replay(run_dir, recorded: pd.DataFrame, replayed: pd.DataFrame, last:
             str(run_dir), "steps.parquet",
             "a run that its summary.json replays exactly (has the shape file, the learner or PyBullet changed since?)",
             f"step {int(expected.step.iloc[k])}: recorded Ubar {a[k]:+.6f} mm/cycle, replayed {b[k]:+.6f}")
+
+
+PHASE_COLUMNS = {"step": "iu", "position": "iu", "phase_kept": "f", "x_m": "f", "y_m": "f", "heading_rad": "f"}
+"""the columns of units.parquet a phase map reads, and their dtype kinds."""
+
+
+def phase_maps(run_dir: str | os.PathLike, out_path: str | os.PathLike, steps: list[int]) -> Path:
+    """A PNG at ``out_path`` of the kept phases over the assembly of the run in ``run_dir`` (as ``load_run``) at the
+    end of each of ``steps``: one panel per step, every unit its footprint at its pose, coloured on the cyclic phase
+    map (``plots.phase_maps``). Read from its ``units.parquet``; nothing is simulated. ConfigError (naming --out,
+    --phases or the file) for an output that is not a .png, a step the run does not have, a shape not in one layer
+    or a units table without the columns."""
+    out = check_output_path(out_path, "--out", (".png",))
+    config, _ = load_run(run_dir)
+    shape = config.shape
+    resolve_view(shape, VideoParams(view="top"), "--phases")
+    wrong = [step for step in steps if not 0 <= step <= config.steps]
+    if wrong:
+        raise ConfigError("--phases", ",".join(map(str, steps)), f"learning steps of this run, 0 to {config.steps}",
+                          wrong[0])
+    units_file = Path(run_dir) / "units.parquet"
+    if not is_file(units_file):
+        raise ConfigError(str(run_dir), "units.parquet", "a run's units table (written by morphbench run)",
+                          "missing")
+    try:
+        units = pd.read_parquet(units_file, columns=list(PHASE_COLUMNS))
+    except Exception as exc:  # a column missing or a damaged file: pyarrow's own error types
+        raise ConfigError(str(units_file), "(file)", "a units table written by morphbench with the columns "
+                          f"{', '.join(PHASE_COLUMNS)} ({exc})") from None
+    for column, kinds in PHASE_COLUMNS.items():
+        if units[column].dtype.kind not in kinds:
+            raise ConfigError(str(units_file), column, "a column of numbers", str(units[column].dtype))
+    missing = sorted(set(steps) - set(units.step.unique().tolist()))
+    if missing:
+        raise ConfigError(str(units_file), "step", "a row per unit at every step of the run", f"none at {missing[0]}")
+    from morphbench import plots
+
+    half = np.array([shape.bodies[body].size[:2] for body in shape.units], dtype=float) / 2
+    return plots.phase_maps(units, half, steps, out, title=f"{shape.name}: kept phases")
