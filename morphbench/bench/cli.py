@@ -179,7 +179,6 @@ def cmd_check(args) -> int:
 def cmd_leaderboard(args) -> int:
     from morphbench.bench.executors import LocalExecutor
     from morphbench.bench.leaderboard import leaderboard
-    from morphbench.bench.scores import overall
 
     executor = LocalExecutor(args.workers and min(args.workers, os.cpu_count() or 1))
     try:
@@ -190,8 +189,9 @@ def cmd_leaderboard(args) -> int:
         return EXIT_INTERRUPTED
     for run_id, error in board.failures[:10]:
         print(f"  failed {run_id}: {error}")
-    for rank, row in enumerate(overall(board.scores).itertuples(), 1):
-        print(f"{rank}. {row.learner}: {row.score:.3f} +- {row.score_se:.3f} over {row.tasks} tasks")
+    for rank, row in enumerate(board.ranking.itertuples(), 1):
+        print(f"{rank}. {row.learner}: {row.score:.3f} +- {row.score_se:.3f} over {row.tasks} "
+              f"task{'s' if row.tasks != 1 else ''}")
     print(f"leaderboard in {board.markdown} and {board.html}")
     return EXIT_FAILED_RUNS if board.failures else 0
 

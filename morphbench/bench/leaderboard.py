@@ -35,6 +35,10 @@ class Board:
     """What one leaderboard call found: the scores, the runs that failed, where the tables are."""
 
     scores: pd.DataFrame
+    ranking: pd.DataFrame
+    """each learner's overall score over the tasks compared (scores.overall), best first."""
+    tables: str
+    """the Markdown of the overall ranking and the per-task table (scores.markdown)."""
     failures: list[tuple[str, str]]
     """(run id, error) of the named learners' failed runs."""
     markdown: Path
@@ -53,8 +57,8 @@ def reference_path(suite_path: str | Path) -> Path:
 
 
 def learner_suite(path: str | Path, learners: list[str], tasks: list[str] | None = None) -> Suite:
-    """The suite file's tasks (all, or ``tasks``) for ``learners``, without its scans (the reference holds their
-    best points). A task names no learner of its own: the leaderboard sets them (defaults.learner.name)."""
+    """The suite file's tasks (all, or those named by ``tasks``) for ``learners``, without its scans (the reference
+    holds their best points). A task names no learner of its own: the leaderboard sets them (defaults.learner.name)."""
     path = Path(path)
     table, text = read_toml_with_text(path, "suite file")
     defaults = dict(table.get("defaults") or {})
@@ -62,10 +66,6 @@ def learner_suite(path: str | Path, learners: list[str], tasks: list[str] | None
     defaults["learner"] = {**(learner if isinstance(learner, dict) else {}), "name": list(learners)}
     experiments = table.get("experiment", [])
     experiments = experiments if isinstance(experiments, list) else [experiments]
-    names = [e.get("name") for e in experiments if isinstance(e, dict)]
-    for name in tasks or ():
-        if name not in names:
-            raise ConfigError("--tasks", name, f"a task of {path} ({', '.join(map(str, names))})")
     kept = []
     for index, experiment in enumerate(experiments):
         if not isinstance(experiment, dict) or (tasks and experiment.get("name") not in tasks):
@@ -101,6 +101,10 @@ def leaderboard(learners: list[str], out: str | Path = DEFAULT_OUT, suite_path: 
     suite_path = Path(suite_path) if suite_path is not None else standard_suite()
     named = list(dict.fromkeys(learner_spec(load_learner_class(name)) for name in learners))
     full = load_suite(suite_path)
+    names = [e.name for e in full.experiments]
+    for name in tasks or ():
+        if name not in names:
+            raise ConfigError("--tasks", name, f"a task of {suite_path} ({', '.join(names)})")
     reference = S.read_reference(reference_path(suite_path), full)
     stored_rows = reference[reference.kind == "learner"]
     S.check_conditions(reference, conditions(full)[lambda t: t.source.isin(set(stored_rows.source))],
@@ -126,14 +130,16 @@ def leaderboard(learners: list[str], out: str | Path = DEFAULT_OUT, suite_path: 
     else:
         out.mkdir(parents=True, exist_ok=True)
     scores = S.task_scores(pd.concat(results, ignore_index=True), S.best_known(reference))
-    text = (f"# Leaderboard: {full.name}\n\n{full.description}\n\n"
-            + S.markdown(scores, reference, stored=stored))
-    return Board(scores, failures, *write_board(out, text, f"Leaderboard: {full.name}"))
+    compared = S.compared_tasks(scores, tasks)
+    tables = S.markdown(scores, reference, compared, stored=stored)
+    title = f"Leaderboard: {full.name}"
+    return Board(scores, S.overall(scores, compared), tables, failures,
+                 *write_board(out, f"# {title}\n\n{full.description}\n\n{tables}", title))
 
 
-def make_reference(suite_path: str | Path, out: str | Path, executor=None, progress: bool = True) -> pd.DataFrame:
+def make_reference(suite_path: str | Path, out: str | Path, executor=None, progress: bool = True):
     """Run the suite in full (its scans and its own learners: the built-ins) into ``out`` (resumed if it holds them)
-    and write its reference table beside the suite file; the table."""
+    and write its reference table beside the suite file; the table and the run's Outcome (bench.runner)."""
     from morphbench.bench.runner import run_suite
 
     suite = load_suite(suite_path)
@@ -143,7 +149,7 @@ def make_reference(suite_path: str | Path, out: str | Path, executor=None, progr
         raise ConfigError(out, "jobs", f"results without damaged jobs ({REPAIR})")
     table = S.reference_table(suite, outcome.tables["runs"], outcome.tables["scans"])
     S.write_reference(reference_path(suite_path), table)
-    return table
+    return table, outcome
 
 
 def write_board(out: Path, text: str, title: str) -> tuple[Path, Path]:

@@ -190,17 +190,23 @@ def overall(scores: pd.DataFrame, tasks: list[str] | None = None) -> pd.DataFram
     return table.sort_values("score", ascending=False, kind="stable", ignore_index=True)
 
 
-def markdown(scores: pd.DataFrame, reference: pd.DataFrame, stored: list[str] = ()) -> str:
-    """The leaderboard as Markdown: the overall ranking, then a row per task (each learner's score +- its standard
-    error, the best known Ubar and where it comes from). ``stored`` names the learners read from the reference."""
-    tasks = common_tasks(scores)
+def compared_tasks(scores: pd.DataFrame, tasks: list[str] | None = None) -> list[str]:
+    """The tasks the learners are compared on overall: every learner's (``common_tasks``), of ``tasks`` if given."""
+    return [task for task in common_tasks(scores) if tasks is None or task in tasks]
+
+
+def markdown(scores: pd.DataFrame, reference: pd.DataFrame, tasks: list[str], stored: list[str] = ()) -> str:
+    """The leaderboard as Markdown: the overall ranking over ``tasks``, then a row per task (each learner's score
+    +- its standard error, the best known Ubar and where it comes from). ``stored`` names the learners read from
+    the reference."""
     ranking = overall(scores, tasks)
     all_tasks = list(dict.fromkeys(reference.task))
     best, source = best_known(reference), best_source(reference)
-    over = "every task" if len(tasks) == len(all_tasks) else f"the {len(tasks)} tasks every learner is scored on"
+    over = (f"all {len(all_tasks)} tasks" if len(tasks) == len(all_tasks)
+            else f"the {len(tasks)} of {len(all_tasks)} tasks every learner is scored on")
     lines = ["## Overall", "",
-             f"Mean task score over {over} (of {len(all_tasks)}), +- its standard error; 1 is the best gait known "
-             "for each task.", "", "| rank | learner | score | tasks |", "|---|---|---|---|"]
+             f"Mean task score over {over}, +- its standard error; 1 is the best gait known for each task.", "",
+             "| rank | learner | score | tasks |", "|---|---|---|---|"]
     for rank, row in enumerate(ranking.itertuples(), 1):
         lines.append(f"| {rank} | {_learner(row.learner, stored)} | {_pm(row.score, row.score_se)} | {row.tasks} |")
     learners = list(ranking.learner) + [name for name in scores.learner.unique() if name not in set(ranking.learner)]
