@@ -162,7 +162,9 @@ def test_the_reference_holds_the_scans_and_the_builtins(two_tasks):
             assert row.ubar_std[task, "learner", learner] == pytest.approx(mine.std(), rel=1e-5)
     text = doc.read_text()
     assert text.startswith("# Leaderboard\n\nintro\n\n") and text.endswith("\n\nafter\n") and "old" not in text
-    assert "| c2 |" in text and "| c3-noise |" in text and "13 jobs run" in text  # 12 runs, 1 scan part
+    assert "## The tasks (two-v1)" in text and "| c2 | chain-2 | quasistatic | 2 | 6 | scan c2 |" in text
+    assert "| c3-noise | chain-3 | quasistatic | 2 | 6 | the learners only |" in text
+    assert "13 jobs run" in text  # 12 runs, 1 scan part
 
 
 def test_a_plugin_is_run_and_scored_beside_the_stored_builtins(two_tasks, capsys):

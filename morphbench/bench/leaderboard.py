@@ -152,6 +152,22 @@ def make_reference(suite_path: str | Path, out: str | Path, executor=None, progr
     return table, outcome
 
 
+def tasks_markdown(suite: Suite) -> str:
+    """The suite's tasks as a Markdown table: shape, the physics backend its runs resolve to, seeds, learning
+    steps, the scans whose best point is a known gait, what it tests."""
+    from morphbench.physics import resolve_backend
+
+    lines = ["| task | shape | backend | seeds | steps | known gaits from | what it tests |", "|---" * 7 + "|"]
+    for experiment in suite.experiments:
+        specs = [suite.runs[run_id] for run_id in experiment.run_ids]
+        config = specs[0].config
+        backend = resolve_backend(config.shape, config.physics, config.environment)
+        scans = ", ".join(f"scan {name}" for name in experiment.scans) or "the learners only"
+        lines.append(f"| {experiment.name} | {config.shape.name} | {backend} | {len({s.seed for s in specs})} | "
+                     f"{config.steps} | {scans} | {experiment.description} |")
+    return "\n".join(lines) + "\n"
+
+
 def write_board(out: Path, text: str, title: str) -> tuple[Path, Path]:
     """``out``/leaderboard.md and the same as one page, leaderboard.html."""
     from morphbench.bench.html import markdown_page

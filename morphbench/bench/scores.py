@@ -210,8 +210,9 @@ def markdown(scores: pd.DataFrame, reference: pd.DataFrame, tasks: list[str], st
     for rank, row in enumerate(ranking.itertuples(), 1):
         lines.append(f"| {rank} | {_learner(row.learner, stored)} | {_pm(row.score, row.score_se)} | {row.tasks} |")
     learners = list(ranking.learner) + [name for name in scores.learner.unique() if name not in set(ranking.learner)]
-    lines += ["", "## Tasks", "", "Final true Ubar over the best gait known for the task (mean over seeds +- standard "
-              "error); a learner with failed runs is scored on its finished ones (fewer than "
+    lines += ["", "## Per task", "",
+              "Final true Ubar over the best gait known for the task (mean over seeds +- standard error); a learner "
+              "with failed runs is scored on its finished ones (fewer than "
               f"{MIN_RUNS}: not scored, -).", "",
               "| task | " + "".join(f"{_learner(name, stored)} | " for name in learners)
               + "best known (mm/cycle) | from |",
