@@ -43,6 +43,17 @@ resolution = 8
 cycles = 3
 discard = 1
 """
+BROKEN = """
+class Broken:
+    def __init__(self, params, rng):
+        self.phase = 0.0
+
+    def propose(self):
+        raise RuntimeError("no idea")
+
+    def update(self, velocity):
+        return False
+"""
 GREEDY = """
 class Greedy:
     def __init__(self, params, rng):
@@ -68,7 +79,8 @@ class Greedy:
 def test_scores_of_the_fixture_are_the_hand_computed_ones():
     # tests/data/leaderboard-reference.csv: task a (scan best 4, thermal 2.0 +- std 0.8 over 4 runs, random 0.0 +- 0.4),
     # task b (no scan: the best is thermal's 3.0; random 1.0 +- 0.2), task c (scan best 2; thermal has 1 run of 4
-    # finished, 5.0: neither scored nor a known gait; random 0.5 +- 0.2)
+    # finished, 5.0: neither scored nor a known gait; random 0.5 +- 0.2); 'broken' finished no run on a and one on b,
+    # so it is scored nowhere, and the others are compared without it
     reference = pd.read_csv(FIXTURE).drop(columns="suite")
     best = S.best_known(reference)
     assert best.to_dict() == {"a": 4.0, "b": 3.0, "c": 2.0}
@@ -79,6 +91,8 @@ def test_scores_of_the_fixture_are_the_hand_computed_ones():
     for key, (score, se) in expected.items():
         assert scores.score[key] == pytest.approx(score) and scores.score_se[key] == pytest.approx(se), key
     assert math.isnan(scores.score["c", "thermal"]) and math.isnan(scores.score_se["c", "thermal"])
+    assert math.isnan(scores.score["a", "broken"]) and math.isnan(scores.score["b", "broken"])
+    assert scores.failed["a", "broken"] == 4
     assert S.common_tasks(scores.reset_index()) == ["a", "b"]  # thermal is not scored on c
     ranking = S.overall(scores.reset_index()).set_index("learner")
     assert list(ranking.index) == ["thermal", "random"]  # best first
@@ -98,8 +112,9 @@ def test_markdown_shows_every_task_and_marks_the_stored_learners():
     assert "| 1 | thermal* | 0.750 +- 0.097 | 2 |" in text
     assert "| 2 | random* | 0.167 +- 0.030 | 2 |" in text
     assert "the 2 of 3 tasks every learner is scored on" in text
-    assert "| c | - (3 failed) | 0.250 +- 0.050 | 2.00 | scan s-c |" in text
-    assert "| b | 1.000 +- 0.167 | 0.333 +- 0.033 | 3.00 | thermal |" in text
+    assert "| c | - (3 failed) | 0.250 +- 0.050 | not run | 2.00 | scan s-c |" in text
+    assert "| b | 1.000 +- 0.167 | 0.333 +- 0.033 | - (3 failed) | 3.00 | thermal |" in text
+    assert "| - | broken | not scored | 0 |" in text
 
 
 # --- the standard set -------------------------------------------------------------------------------------------------
@@ -135,6 +150,7 @@ def two_tasks(tmp_path_factory):
     plugins = root / "plugins"
     plugins.mkdir()
     (plugins / "greedy_learner.py").write_text(textwrap.dedent(GREEDY))
+    (plugins / "broken_learner.py").write_text(textwrap.dedent(BROKEN))
     with pytest.MonkeyPatch.context() as patch:
         patch.syspath_prepend(str(plugins))
         patch.setenv("PYTHONPATH", os.pathsep.join([str(plugins), str(ROOT)]))
@@ -208,6 +224,20 @@ def test_a_plugin_run_on_some_tasks_is_compared_on_those_only(two_tasks, capsys)
     assert row.count("| not run |") == 1 and row.count(" +- ") == 3  # the plug-in's cell, the stored built-ins
 
 
+def test_a_plugin_whose_runs_fail_is_listed_unscored_and_the_others_still_ranked(two_tasks, capsys):
+    root, suite, _ = two_tasks
+    out = root / "broken"
+    code, stdout, _ = run_cli(capsys, "leaderboard", "broken_learner:Broken", "--suite", str(suite), "--out",
+                              str(out), "--workers", "1", "--quiet")
+    assert code == 1  # runs failed, as a bench with failed runs
+    assert stdout.count("  failed ") == 4 and "no idea" in stdout
+    assert stdout.count(" over 2 tasks") == 3  # the built-ins, compared on every task
+    assert "-. broken_learner:Broken: not scored" in stdout
+    text = (out / "leaderboard.md").read_text()
+    assert "| - | broken_learner:Broken | not scored | 0 |" in text
+    assert text.count("| - (2 failed) |") == 2
+
+
 def test_the_stored_builtins_alone_run_nothing(two_tasks, capsys):
     root, suite, _ = two_tasks
     out = root / "builtins"
@@ -236,7 +266,9 @@ def test_bad_learners_tasks_and_directories_are_one_line(two_tasks, capsys, tmp_
     (tmp_path / "mine" / "notes.txt").write_text("keep")
     assert "a new directory or a leaderboard's" in _refused(capsys, "--suite", str(suite), "--out",
                                                             str(tmp_path / "mine"))
-    assert "no such file" not in _refused(capsys, "--suite", str(tmp_path / "missing.toml"))
+    assert "missing.toml: (file): expected an existing suite file" in _refused(capsys, "--suite",
+                                                                              str(tmp_path / "missing.toml"))
+    assert "--out: '': expected a path" in _refused(capsys, "--suite", str(suite), "--out", "")
 
 
 def test_damaged_results_are_refused(two_tasks, capsys, tmp_path):
@@ -255,6 +287,9 @@ def test_damaged_results_are_refused(two_tasks, capsys, tmp_path):
     (lambda t: t[t.kind != "scan"], "task c2"),
     (lambda t: t.drop(columns="ubar_std"), "(columns)"),
     (lambda t: t.assign(id=t.id.where(t.source != "thermal", "0" * 12)), "task c2"),
+    (lambda t: t.assign(ubar=t.ubar.astype(str).where(t.kind != "scan", "fast")), "(column ubar)"),
+    (lambda t: pd.concat([t, t.iloc[:1]]), "it repeats"),
+    (lambda t: t.assign(runs=t.runs.astype(float).where(t.kind != "scan", math.nan)), "runs: expected a count"),
 ])
 def test_a_damaged_or_stale_reference_is_refused(two_tasks, capsys, tmp_path, damage, key):
     _, suite, _ = two_tasks

@@ -192,6 +192,8 @@ def cmd_leaderboard(args) -> int:
     for rank, row in enumerate(board.ranking.itertuples(), 1):
         print(f"{rank}. {row.learner}: {row.score:.3f} +- {row.score_se:.3f} over {row.tasks} "
               f"task{'s' if row.tasks != 1 else ''}")
+    for name in sorted(set(board.scores.learner) - set(board.ranking.learner)):
+        print(f"-. {name}: not scored (no task where 2 of its runs finished)")
     print(f"leaderboard in {board.markdown} and {board.html}")
     return EXIT_FAILED_RUNS if board.failures else 0
 

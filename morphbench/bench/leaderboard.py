@@ -23,7 +23,7 @@ from morphbench.bench.model import Suite
 from morphbench.bench.store import DAMAGED, REPAIR, Store
 from morphbench.bench.suite import load_suite, suite_from_table
 from morphbench.errors import ConfigError
-from morphbench.files import read_toml_with_text, write_text
+from morphbench.files import check_path, read_toml_with_text, write_text
 
 STANDARD = "standard.toml"
 DEFAULT_OUT = "results/leaderboard"
@@ -98,6 +98,7 @@ def leaderboard(learners: list[str], out: str | Path = DEFAULT_OUT, suite_path: 
     table that is not this suite's, a results directory of another suite or with damaged runs) is a ConfigError."""
     from morphbench.learning.plugins import learner_spec, load_learner_class
 
+    out = check_path(str(out), "--out")  # before anything is read: an impossible name writes nothing
     suite_path = Path(suite_path) if suite_path is not None else standard_suite()
     named = list(dict.fromkeys(learner_spec(load_learner_class(name)) for name in learners))
     full = load_suite(suite_path)
@@ -112,7 +113,6 @@ def leaderboard(learners: list[str], out: str | Path = DEFAULT_OUT, suite_path: 
     stored = list(dict.fromkeys(stored_rows.source))
     to_run = [name for name in named if name not in stored]
     results, failures = [stored_rows], []
-    out = Path(out)
     _check_out(out, full.name)
     if to_run:
         from morphbench.bench.runner import run_suite

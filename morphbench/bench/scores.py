@@ -100,6 +100,13 @@ def read_reference(path: str | Path, suite: Suite) -> pd.DataFrame:
         raise ConfigError(path, "(file)", f"a readable CSV reference table {regenerate}", str(exc)) from None
     if tuple(table.columns) != REFERENCE_COLUMNS:
         raise ConfigError(path, "(columns)", f"{', '.join(REFERENCE_COLUMNS)} {regenerate}", ", ".join(table.columns))
+    for column in ("ubar", "ubar_std"):
+        if not pd.api.types.is_numeric_dtype(table[column]):
+            raise ConfigError(path, f"(column {column})", "velocities in mm/cycle (numbers)")
+    repeated = table[table.duplicated(["task", "kind", "source"])]
+    if len(repeated):
+        raise ConfigError(path, f"row {repeated.index[0] + 2}", "one row per task and scan or learner (it repeats "
+                                                                f"{repeated.kind.iloc[0]} {repeated.source.iloc[0]})")
     for index, row in table.iterrows():
         where = f"row {index + 2}"  # as a spreadsheet counts: the header is row 1
         if row.kind not in KINDS:
@@ -170,19 +177,20 @@ def task_scores(results: pd.DataFrame, best: pd.Series) -> pd.DataFrame:
 
 
 def common_tasks(scores: pd.DataFrame) -> list[str]:
-    """The tasks every learner of ``scores`` is scored on, in their order."""
-    learners = scores.learner.unique()
+    """The tasks every learner of ``scores`` that is scored anywhere is scored on, in their order (a learner whose
+    runs all failed leaves the others their comparison)."""
     scored = scores[np.isfinite(scores.score)]
     counts = scored.groupby("task", sort=False).learner.nunique()
-    return [task for task in scores.task.unique() if counts.get(task, 0) == len(learners)]
+    return [task for task in scores.task.unique() if counts.get(task, 0) == scored.learner.nunique()]
 
 
 def overall(scores: pd.DataFrame, tasks: list[str] | None = None) -> pd.DataFrame:
     """Per learner, its mean score over ``tasks`` (default: ``common_tasks``) and the standard error propagated from
-    the tasks': ``learner``, ``score``, ``score_se``, ``tasks``; best first."""
+    the tasks': ``learner``, ``score``, ``score_se``, ``tasks``; best first (a learner scored on none of them is
+    left out)."""
     tasks = common_tasks(scores) if tasks is None else tasks
     rows = []
-    for learner, group in scores[scores.task.isin(tasks)].groupby("learner", sort=False):
+    for learner, group in scores[scores.task.isin(tasks) & np.isfinite(scores.score)].groupby("learner", sort=False):
         n = len(group)
         rows.append({"learner": learner, "score": float(group.score.mean()) if n else math.nan,
                      "score_se": float(np.sqrt((group.score_se ** 2).sum())) / n if n else math.nan, "tasks": n})
@@ -210,6 +218,7 @@ def markdown(scores: pd.DataFrame, reference: pd.DataFrame, tasks: list[str], st
     for rank, row in enumerate(ranking.itertuples(), 1):
         lines.append(f"| {rank} | {_learner(row.learner, stored)} | {_pm(row.score, row.score_se)} | {row.tasks} |")
     learners = list(ranking.learner) + [name for name in scores.learner.unique() if name not in set(ranking.learner)]
+    lines += [f"| - | {_learner(name, stored)} | not scored | 0 |" for name in learners[len(ranking):]]
     lines += ["", "## Per task", "",
               "Final true Ubar over the best gait known for the task (mean over seeds +- standard error); a learner "
               "with failed runs is scored on its finished ones (fewer than "
