@@ -17,6 +17,7 @@ import pytest
 from morphbench.bench import scores as S
 from morphbench.bench.leaderboard import learner_suite, reference_path, standard_suite
 from morphbench.bench.suite import load_suite
+from morphbench.errors import ConfigError
 
 from conftest import BENCHMARKS_DIR, ROOT, SHAPES_DIR, run_cli
 
@@ -298,6 +299,20 @@ def test_a_damaged_or_stale_reference_is_refused(two_tasks, capsys, tmp_path, da
     damage(pd.read_csv(reference_path(suite), dtype={"id": str})).to_csv(reference_path(copy), index=False)
     message = _refused(capsys, "--suite", str(copy), "--out", str(tmp_path / "out"))
     assert f"{reference_path(copy)}: " in message and key in message
+
+
+def test_a_task_nothing_moves_forward_has_no_reference(two_tasks):
+    _, suite_path, _ = two_tasks
+    suite = load_suite(suite_path)
+    runs = pd.DataFrame([{"run_id": r.id, "learner": r.condition["learner"], "condition_id": r.condition_id,
+                          "status": "done", "final_ubar_true": -1.0} for r in suite.runs.values()])
+    with pytest.raises(ConfigError) as info:
+        S.reference_table(suite, runs, pd.DataFrame({"scan": ["c2"], "ubar": [-0.5]}))
+    assert str(info.value).startswith(f"{suite_path}: experiment[c2]: expected a task on which some scan point")
+    moving = S.reference_table(suite, runs.assign(final_ubar_true=[1.0, 3.0] * (len(runs) // 2)),
+                               pd.DataFrame({"scan": ["c2"], "ubar": [-0.5]}))
+    assert S.best_known(moving).to_dict() == {"c2": 2.0, "c3-noise": 2.0}  # seeds 0 and 1 of each learner
+    assert list(moving.kind[moving.task == "c2"]) == ["scan", "learner", "learner", "learner"]
 
 
 def test_a_reference_of_another_definition_is_refused(two_tasks, capsys, tmp_path):

@@ -80,8 +80,8 @@ def add_bench_commands(subparsers) -> None:
     board.add_argument("learners", nargs="*", metavar="LEARNER",
                        help="thermal, flaky, random, a centralized baseline or a plug-in package.module:Class (its "
                             "directory on PYTHONPATH); none: the stored built-ins alone")
-    board.add_argument("--out", default="results/leaderboard",
-                       help="results directory of the learners' runs and the tables (default %(default)s)")
+    board.add_argument("--out", help="results directory of the learners' runs and the tables (default "
+                                     "results/leaderboard)")
     board.add_argument("--tasks", nargs="+", metavar="TASK",
                        help="run the learners on these tasks only; every learner is then compared overall on them")
     board.add_argument("--suite", help="another task set, its reference table beside it as STEM-reference.csv "
@@ -178,13 +178,14 @@ def cmd_check(args) -> int:
 
 def cmd_leaderboard(args) -> int:
     from morphbench.bench.executors import LocalExecutor
-    from morphbench.bench.leaderboard import leaderboard
+    from morphbench.bench.leaderboard import DEFAULT_OUT, leaderboard
 
+    out = DEFAULT_OUT if args.out is None else args.out
     executor = LocalExecutor(args.workers and min(args.workers, os.cpu_count() or 1))
     try:
-        board = leaderboard(args.learners, args.out, args.suite, args.tasks, executor, progress=not args.quiet)
+        board = leaderboard(args.learners, out, args.suite, args.tasks, executor, progress=not args.quiet)
     except KeyboardInterrupt:
-        print(f"morphbench: interrupted; finished runs are saved in {args.out}: run the same command again to resume",
+        print(f"morphbench: interrupted; finished runs are saved in {out}: run the same command again to resume",
               file=sys.stderr)
         return EXIT_INTERRUPTED
     for run_id, error in board.failures[:10]:

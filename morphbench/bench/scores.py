@@ -70,12 +70,13 @@ def scan_results(suite: Suite, scans: pd.DataFrame) -> pd.DataFrame:
 
 def reference_table(suite: Suite, runs: pd.DataFrame, scans: pd.DataFrame) -> pd.DataFrame:
     """The reference table of a suite run in full (its scans and the built-in learners): ``REFERENCE_COLUMNS``.
-    A task with no gait known to move forward has no reference: a ValueError naming it."""
+    A task with no gait known to move forward has no reference: a ConfigError naming it in the suite file."""
     table = pd.concat([scan_results(suite, scans), learner_results(suite, runs)], ignore_index=True)
     table.insert(0, "suite", suite.name)
     for task, best in best_known(table).items():
         if not best > 0:
-            raise ValueError(f"{suite.name}: task {task}: no scan point or learner moves it forward (best {best})")
+            raise ConfigError(suite.source, f"experiment[{task}]", "a task on which some scan point or learner "
+                                                                   "moves forward (its best known Ubar)", best)
     return table.sort_values(["task", "kind", "source"], key=_task_order(suite), kind="stable", ignore_index=True)
 
 
@@ -99,7 +100,8 @@ def read_reference(path: str | Path, suite: Suite) -> pd.DataFrame:
     except (OSError, ValueError, UnicodeDecodeError) as exc:
         raise ConfigError(path, "(file)", f"a readable CSV reference table {regenerate}", str(exc)) from None
     if tuple(table.columns) != REFERENCE_COLUMNS:
-        raise ConfigError(path, "(columns)", f"{', '.join(REFERENCE_COLUMNS)} {regenerate}", ", ".join(table.columns))
+        raise ConfigError(path, "(columns)", f"{', '.join(REFERENCE_COLUMNS)} {regenerate}",
+                          ", ".join(map(str, table.columns)))
     for column in ("ubar", "ubar_std"):
         if not pd.api.types.is_numeric_dtype(table[column]):
             raise ConfigError(path, f"(column {column})", "velocities in mm/cycle (numbers)")
