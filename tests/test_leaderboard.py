@@ -116,6 +116,9 @@ def test_markdown_shows_every_task_and_marks_the_stored_learners():
     assert "| c | - (3 failed) | 0.250 +- 0.050 | not run | 2.00 | scan s-c |" in text
     assert "| b | 1.000 +- 0.167 | 0.333 +- 0.033 | - (3 failed) | 3.00 | thermal |" in text
     assert "| - | broken | not scored | 0 |" in text
+    renamed = reference.assign(source=reference.source.replace("random", "cmaes"))
+    scores = S.task_scores(renamed, S.best_known(renamed))
+    assert "| 2 | cmaes (centralized) | 0.167 +- 0.030 | 2 |" in S.markdown(scores, renamed, S.compared_tasks(scores))
 
 
 # --- the standard set -------------------------------------------------------------------------------------------------

@@ -251,7 +251,11 @@ def _pm(value: float, se: float) -> str:
 
 
 def _learner(name: str, stored) -> str:
-    return f"{name}*" if name in stored else name
+    """A learner's name in the tables: * if read from the reference; a centralized baseline marked as one (a
+    reference for the decentralized learners, not one of them)."""
+    from morphbench.learning.controllers import CENTRALIZED
+
+    return f"{name}{'*' if name in stored else ''}{' (centralized)' if name in CENTRALIZED else ''}"
 
 
 def _task_order(suite: Suite):
