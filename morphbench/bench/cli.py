@@ -80,13 +80,14 @@ def add_bench_commands(subparsers) -> None:
     board.add_argument("learners", nargs="*", metavar="LEARNER",
                        help="thermal, flaky, random, a centralized baseline or a plug-in package.module:Class (its "
                             "directory on PYTHONPATH); none: the stored built-ins alone")
-    board.add_argument("--out", help="results directory of the learners' runs and the tables (default "
+    board.add_argument("--out", metavar="DIR", help="results directory of the learners' runs and the tables (default "
                                      "results/leaderboard)")
     board.add_argument("--tasks", nargs="+", metavar="TASK",
                        help="run the learners on these tasks only; every learner is then compared overall on them")
-    board.add_argument("--suite", help="another task set, its reference table beside it as STEM-reference.csv "
-                                       "(default: the standard set)")
-    board.add_argument("--workers", type=_positive_int, default=None,
+    board.add_argument("--suite", metavar="FILE",
+                       help="another task set, its reference table beside it as STEM-reference.csv (default: the "
+                            "standard set)")
+    board.add_argument("--workers", metavar="N", type=_positive_int, default=None,
                        help="local worker processes (default: the cores available)")
     board.add_argument("--quiet", action="store_true", help="no progress bar")
     board.set_defaults(func=cmd_leaderboard)
