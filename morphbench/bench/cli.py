@@ -80,8 +80,8 @@ def add_bench_commands(subparsers) -> None:
     board.add_argument("learners", nargs="*", metavar="LEARNER",
                        help="thermal, flaky, random, a centralized baseline or a plug-in package.module:Class (its "
                             "directory on PYTHONPATH); none: the stored built-ins alone")
-    board.add_argument("--out", metavar="DIR", help="results directory of the learners' runs and the tables (default "
-                                     "results/leaderboard)")
+    board.add_argument("--out", metavar="DIR",
+                       help="results directory of the learners' runs and the tables (default results/leaderboard)")
     board.add_argument("--tasks", nargs="+", metavar="TASK",
                        help="run the learners on these tasks only; every learner is then compared overall on them")
     board.add_argument("--suite", metavar="FILE",
