@@ -4,6 +4,7 @@
                      [--no-report | --no-videos]
     morphbench report DIR [--compare A B] [--no-videos]
     morphbench check DIR [--repair]
+    morphbench leaderboard [LEARNER ...] [--out DIR] [--tasks TASK ...] [--suite FILE] [--workers N] [--quiet]
 """
 
 from __future__ import annotations
@@ -69,6 +70,27 @@ def add_bench_commands(subparsers) -> None:
                        help="move damaged jobs and files into DIR/damaged/<time>/ (nothing is deleted) and drop the "
                             "tables left stale, so that 'morphbench bench SUITE --out DIR' runs those jobs again")
     check.set_defaults(func=cmd_check)
+
+    board = subparsers.add_parser(
+        "leaderboard", help="score learners on the standard task set against the stored built-ins",
+        description="Run the standard task set (benchmarks/standard.toml) for the named learners into DIR (resumed: "
+                    "runs it holds are not run again) and score each task's final true Ubar over the best gait "
+                    "known for it; the built-ins' results are read from the stored reference table, not run. "
+                    "Writes DIR/leaderboard.md and DIR/leaderboard.html (docs/leaderboard.md).")
+    board.add_argument("learners", nargs="*", metavar="LEARNER",
+                       help="thermal, flaky, random, a centralized baseline or a plug-in package.module:Class (its "
+                            "directory on PYTHONPATH); none: the stored built-ins alone")
+    board.add_argument("--out", metavar="DIR",
+                       help="results directory of the learners' runs and the tables (default results/leaderboard)")
+    board.add_argument("--tasks", nargs="+", metavar="TASK",
+                       help="run the learners on these tasks only; every learner is then compared overall on them")
+    board.add_argument("--suite", metavar="FILE",
+                       help="another task set, its reference table beside it as STEM-reference.csv (default: the "
+                            "standard set)")
+    board.add_argument("--workers", metavar="N", type=_positive_int, default=None,
+                       help="local worker processes (default: the cores available)")
+    board.add_argument("--quiet", action="store_true", help="no progress bar")
+    board.set_defaults(func=cmd_leaderboard)
 
 
 def cmd_bench(args) -> int:
@@ -153,6 +175,29 @@ def cmd_check(args) -> int:
     from morphbench.bench.check import run
 
     return run(args.dir, repair=args.repair)
+
+
+def cmd_leaderboard(args) -> int:
+    from morphbench.bench.executors import LocalExecutor
+    from morphbench.bench.leaderboard import DEFAULT_OUT, leaderboard
+
+    out = DEFAULT_OUT if args.out is None else args.out
+    executor = LocalExecutor(args.workers and min(args.workers, os.cpu_count() or 1))
+    try:
+        board = leaderboard(args.learners, out, args.suite, args.tasks, executor, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"morphbench: interrupted; finished runs are saved in {out}: run the same command again to resume",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
+    for run_id, error in board.failures[:10]:
+        print(f"  failed {run_id}: {error}")
+    for rank, row in enumerate(board.ranking.itertuples(), 1):
+        print(f"{rank}. {row.learner}: {row.score:.3f} +- {row.score_se:.3f} over {row.tasks} "
+              f"task{'s' if row.tasks != 1 else ''}")
+    for name in sorted(set(board.scores.learner) - set(board.ranking.learner)):
+        print(f"-. {name}: not scored (no task where 2 of its runs finished)")
+    print(f"leaderboard in {board.markdown} and {board.html}")
+    return EXIT_FAILED_RUNS if board.failures else 0
 
 
 def _positive_int(text: str) -> int:

@@ -72,6 +72,12 @@ def write_html(root: str | Path, videos: bool = True) -> Path:
     return path
 
 
+def markdown_page(text: str, title: str) -> str:
+    """A Markdown text (CommonMark and tables, no raw HTML) as one page in the report's style (the leaderboard)."""
+    body = MarkdownIt("commonmark", {"html": False}).enable("table").render(text)
+    return PAGE.format(title=html.escape(title), css=CSS, script="", body=body, suite="", versions="")
+
+
 # --- markdown tokens ------------------------------------------------------------------------------------------------
 
 
