@@ -127,7 +127,7 @@ def test_markdown_shows_every_task_and_marks_the_stored_learners():
 def test_the_standard_set_reads_and_each_task_is_one_condition_per_learner():
     suite = load_suite(standard_suite())
     assert standard_suite() == BENCHMARKS_DIR / "standard.toml" and suite.name == "standard-v1"
-    assert len(suite.experiments) == 14
+    assert len(suite.experiments) == 16
     for experiment in suite.experiments:
         learners = {suite.runs[r].condition["learner"] for r in experiment.run_ids}
         assert learners == {"thermal", "flaky", "random"} and len(experiment.condition_ids) == 3, experiment.name
