@@ -276,9 +276,10 @@ def test_bad_learners_tasks_and_directories_are_one_line(two_tasks, capsys, tmp_
 
 
 def test_damaged_results_are_refused(two_tasks, capsys, tmp_path):
-    root, suite, _ = two_tasks
+    _, suite, _ = two_tasks
     out = tmp_path / "board"
-    shutil.copytree(root / "board", out)
+    assert run_cli(capsys, "leaderboard", "greedy_learner:Greedy", "--suite", str(suite), "--out", str(out),
+                   "--workers", "1", "--quiet")[0] == 0
     result = next((out / "runs").glob("*/result.json"))
     result.write_text("{not json")
     message = _refused(capsys, "greedy_learner:Greedy", "--suite", str(suite), "--out", str(out))
