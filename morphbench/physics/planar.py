@@ -84,19 +84,29 @@ class PlanarWorld(QuasiStatic):
         self.q[:, 2] = shape.yaw
         self._last = np.zeros_like(self.q)
         """the previous tick's increments: where the next solve starts from."""
-        self._rho = np.array([friction_radius(body.size[0], body.size[1]) for body in shape.bodies])
+        radii = {size: friction_radius(size[0], size[1]) for size in {body.size[:2] for body in shape.bodies}}
+        self._rho = np.array([radii[body.size[:2]] for body in shape.bodies])
         actuator = shape.actuator
         self._stiffness = np.array([actuator.stiffness, actuator.shear_stiffness, actuator.bending_stiffness])
-        if sparse is None:
-            sparse = len(shape.bodies) >= SPARSE_FROM
-        self._pattern = cholesky.structure(self._rest[:, :2], self._front, self._rear) if sparse else cholesky.NONE
-        """the sparse factor's pattern of the Newton systems, or none (the banded solver)."""
+        self.sparse = len(shape.bodies) >= SPARSE_FROM if sparse is None else sparse
+        """whether the Newton systems are solved by the sparse factorisation (else the banded one)."""
+        self._pattern = cholesky.structure(self._rest[:, :2], self._front, self._rear) if self.sparse \
+            else cholesky.NONE
+        """the sparse factor's pattern of the Newton systems, or none."""
         self.newton_steps = 0
         """Newton steps taken so far (a measure of the solver's work)."""
         self.unconverged_ticks = 0
         """ticks whose solve stopped before meeting FORCE_TOLERANCE (expected 0)."""
         self.time = 0.0
         """s, the pumps' clock (nothing needs settling: bodies start at rest on the ground)."""
+
+    @staticmethod
+    def solver_memory(bodies: int, links: int) -> float:
+        """bytes the solver of a shape of that many bodies and links holds: the Newton systems' factor and blocks,
+        or the banded solver's dense Hessians."""
+        if bodies >= SPARSE_FROM:
+            return cholesky.memory(bodies) + 2 * (bodies + links) * 9 * 8
+        return 3 * (3 * bodies) ** 2 * 8
 
     @property
     def state(self) -> np.ndarray:

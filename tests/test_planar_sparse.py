@@ -1,0 +1,178 @@
+"""The planar solver's sparse path (physics/cholesky.py): the factorisation against numpy, the same motion as the
+banded solver on every library shape in one layer, the plane's symmetries on a sheet above SPARSE_FROM, and the
+limits of a shape's size (units, memory)."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from morphbench.errors import ConfigError
+from morphbench.experiment import RunConfig, run
+from morphbench.params import DEFAULT_PHYSICS, QUASISTATIC_PHYSICS, SensorParams
+from morphbench.physics import PlanarWorld, cholesky, memory_estimate, planar
+from morphbench.shapes import load_shape, rotate, shape_from_table
+
+from conftest import SHAPES_DIR, run_cli
+from test_cli import EXIT_BAD_INPUT, assert_one_line_error
+from test_planar import mirrored
+from test_planar_seeds import planar_library
+
+AGREE = 1e-9
+"""m (and rad), how far the two solvers' poses may part over a run of 480 ticks: each tick's answer balances forces
+to FORCE_TOLERANCE (1e-10 N), which moves a body by at most about 1e-12 m against the softest spring (100 N/m)."""
+
+
+def sheet(rows: int, columns: int):
+    return shape_from_table({"assembly": {"generator": "grid", "rows": rows, "columns": columns, "dummy": False,
+                                          "actuated_axes": ["x", "y"]}}, source=f"sheet {rows} x {columns}")
+
+
+def block_system(points, front, rear, seed):
+    """A random symmetric positive definite matrix with the links' block pattern (dense), and its blocks stored in
+    the factor's pattern."""
+    rng = np.random.default_rng(seed)
+    n = len(points)
+    dense = np.zeros((3 * n, 3 * n))
+    for f, r in zip(front, rear):
+        block = rng.normal(size=(3, 3))
+        dense[3 * f:3 * f + 3, 3 * r:3 * r + 3] += block
+        dense[3 * r:3 * r + 3, 3 * f:3 * f + 3] += block.T
+    dense += np.kron(np.eye(n), np.eye(3)) * (np.abs(dense).sum(axis=1).max() + 1)  # diagonally dominant
+    pattern = cholesky.structure(points, front, rear)
+    blocks = np.zeros((len(pattern.rows), 3, 3))
+    for i in range(n):
+        blocks[pattern.columns[pattern.position[i]]] = dense[3 * i:3 * i + 3, 3 * i:3 * i + 3]
+    for link, (f, r) in enumerate(zip(front, rear)):
+        block = dense[3 * f:3 * f + 3, 3 * r:3 * r + 3]
+        blocks[pattern.link_slots[link]] = block if pattern.position[f] > pattern.position[r] else block.T
+    return dense, pattern, blocks
+
+
+def lattice_links(sites):
+    index = {site: k for k, site in enumerate(sites)}
+    pairs = [(index[(i + di, j + dj)], k) for (i, j), k in index.items() for di, dj in ((1, 0), (0, 1))
+             if (i + di, j + dj) in index]
+    return np.array([f for f, _ in pairs], dtype=np.int64), np.array([r for _, r in pairs], dtype=np.int64)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_factorisation_solves_as_numpy_does(seed):
+    """A random planar patch (holes, shuffled body order, sometimes two pieces) and a random matrix on its links."""
+    rng = np.random.default_rng(seed)
+    sites = [(i, j) for i in range(15) for j in range(11) if rng.random() < 0.8 and not (seed == 3 and i == 7)]
+    sites = [sites[k] for k in rng.permutation(len(sites))]
+    front, rear = lattice_links(sites)
+    dense, pattern, blocks = block_system(np.array(sites, dtype=float), front, rear, seed)
+    assert sorted(pattern.position) == list(range(len(sites)))
+    assert cholesky.factor(blocks, pattern.columns, pattern.rows, pattern.row_starts, pattern.row_slots,
+                           pattern.row_columns, np.empty(len(sites), dtype=np.int64))
+    b = rng.normal(size=3 * len(sites))
+    x = np.empty((len(sites), 3))
+    x[pattern.position] = b.reshape(-1, 3)
+    cholesky.solve(blocks, pattern.columns, pattern.rows, x)
+    assert np.abs(x[pattern.position].ravel() - np.linalg.solve(dense, b)).max() < 1e-12
+
+
+def test_a_matrix_that_is_not_definite_is_refused():
+    front, rear = lattice_links([(i, j) for i in range(4) for j in range(4)])
+    dense, pattern, blocks = block_system(np.array([(i, j) for i in range(4) for j in range(4)], float), front,
+                                          rear, 0)
+    blocks[pattern.columns[5]] *= -1
+    assert not cholesky.factor(blocks, pattern.columns, pattern.rows, pattern.row_starts, pattern.row_slots,
+                               pattern.row_columns, np.empty(16, dtype=np.int64))
+
+
+def test_nested_dissection_fills_a_sheet_less_than_its_band():
+    """A 40 x 40 sheet: in row order the factor fills the band (40 blocks below each diagonal); dissected it holds
+    under half of that."""
+    front, rear = lattice_links([(i, j) for i in range(40) for j in range(40)])
+    pattern = cholesky.structure(np.array([(i, j) for i in range(40) for j in range(40)], float), front, rear)
+    assert len(pattern.rows) < 0.5 * 41 * 1600
+
+
+def both(shape, physics=QUASISTATIC_PHYSICS):
+    return PlanarWorld(shape, physics, sparse=True), PlanarWorld(shape, physics, sparse=False)
+
+
+@pytest.mark.parametrize("name", planar_library())
+def test_the_sparse_path_moves_every_library_shape_as_the_banded_one(name):
+    shape = load_shape(SHAPES_DIR / f"{name}.toml")
+    phases = np.random.default_rng(len(name)).random(shape.n_units)
+    worlds = both(shape, DEFAULT_PHYSICS)
+    for world in worlds:
+        world.set_phases(phases)
+        world.advance(world.ticks_in(2.0))
+        world.cut(len(shape.links) // 2)  # and a piece moving apart
+        world.advance(world.ticks_in(2.0))
+        assert world.unconverged_ticks == 0
+    sparse, banded = worlds
+    assert np.abs(sparse.q - banded.q).max() < AGREE
+    assert abs(sparse.newton_steps - banded.newton_steps) <= 0.01 * banded.newton_steps
+
+
+def test_a_sheet_takes_the_sparse_path_and_a_library_shape_the_banded_one():
+    assert len(sheet(12, 11).bodies) >= planar.SPARSE_FROM
+    assert PlanarWorld(sheet(12, 11), QUASISTATIC_PHYSICS).sparse
+    for name in planar_library():  # so the library's records stay bit for bit what they were
+        assert not PlanarWorld(load_shape(SHAPES_DIR / f"{name}.toml"), QUASISTATIC_PHYSICS).sparse
+
+
+def trajectory(shape, phases, seconds=1.0):
+    world = PlanarWorld(shape, QUASISTATIC_PHYSICS)
+    world.set_phases(phases)
+    world.advance(world.ticks_in(seconds))
+    assert world.unconverged_ticks == 0
+    return world.q.copy()
+
+
+def test_turning_a_sheet_turns_its_motion_on_the_sparse_path():
+    shape = sheet(12, 11)
+    phases = np.random.default_rng(1).random(shape.n_units)
+    base, turned = trajectory(shape, phases), trajectory(rotate(shape, 90), phases)
+    assert np.abs(turned[:, 0] + base[:, 1]).max() < AGREE  # x' = -y
+    assert np.abs(turned[:, 1] - base[:, 0]).max() < AGREE  # y' = x
+    assert np.abs(turned[:, 2] - base[:, 2] - np.pi / 2).max() < AGREE
+    assert np.ptp(base[:, 2]) > 1e-4  # the units' different gaits do turn the bodies
+
+
+def test_a_mirrored_sheet_moves_as_the_mirror_image_on_the_sparse_path():
+    shape = sheet(12, 11)
+    phases = np.random.default_rng(2).random(shape.n_units)
+    moved, mirror = trajectory(shape, phases), trajectory(mirrored(shape), phases)
+    assert np.abs(mirror[:, 0] - moved[:, 0]).max() < AGREE
+    assert np.abs(mirror[:, 1] + moved[:, 1]).max() < AGREE
+    assert np.abs(mirror[:, 2] + moved[:, 2]).max() < AGREE
+
+
+def test_the_memory_estimate_grows_with_the_shape():
+    small, large = sheet(10, 10), sheet(100, 100)
+    assert 0 < memory_estimate(small, DEFAULT_PHYSICS, ticks=480) < memory_estimate(large, DEFAULT_PHYSICS, ticks=480)
+    assert memory_estimate(large, DEFAULT_PHYSICS, ticks=480, copies=2) == \
+        2 * memory_estimate(large, DEFAULT_PHYSICS, ticks=480)
+
+
+def test_a_run_that_would_not_fit_in_memory_is_refused_before_it_starts(monkeypatch):
+    monkeypatch.setattr("morphbench.physics.available_memory", lambda: 2.0**20)
+    built = []
+    monkeypatch.setattr("morphbench.experiment.driver.make_world", lambda *a, **k: built.append(a))
+    with pytest.raises(ConfigError, match=r"sheet 10 x 10: assembly: expected an assembly whose run fits in the "
+                                          r"memory available \(1\.0 MiB\), got '100 bodies, an estimated \d+\.\d MiB'"):
+        run(RunConfig(shape=sheet(10, 10), seed=0, steps=1, sensor=SensorParams(kind="ideal")))
+    assert not built
+
+
+def test_the_command_line_refuses_it_in_one_line(tmp_path: Path, capsys, monkeypatch):
+    monkeypatch.setattr("morphbench.physics.available_memory", lambda: 2.0**20)
+    shape = tmp_path / "sheet.toml"
+    shape.write_text('[assembly]\ngenerator = "grid"\nrows = 10\ncolumns = 10\ndummy = false\n')
+    code, _, err = run_cli(capsys, "run", str(shape), "--out", str(tmp_path / "out"), "--steps", "1", "--quiet")
+    assert code == EXIT_BAD_INPUT
+    assert_one_line_error(err, str(shape), "assembly", "fits in the memory available", "an estimated")
+    assert not (tmp_path / "out" / "summary.json").exists()
+
+
+def test_a_shape_beyond_the_limit_is_refused_saying_why():
+    with pytest.raises(ConfigError, match="at most 100000 active units in all .rows x columns = 100489; a larger "
+                                          "assembly takes over an hour per simulated second"):
+        sheet(317, 317)
