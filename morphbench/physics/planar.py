@@ -18,8 +18,10 @@ satisfy force balance with friction opposing their motion, the others satisfy th
 |spring force| <= w_i (the torque scaled by rho_i). A Newton step is taken only where it lowers the residual without
 raising the forward-backward envelope (a merit whose minimisers are the energy's), else a proximal gradient step that
 lowers it for sure: the solve converges from any start, frictionless bodies and bodies on the verge of sliding
-included (tests/test_planar_seeds.py). The Newton systems are banded (bodies couple only to their neighbours, which
-a lattice lists within a row of each other), so a 100-body sheet costs about a row's width squared per body.
+included (tests/test_planar_seeds.py). The Newton systems couple a body only to its neighbours. Below SPARSE_FROM
+bodies they are solved banded (a lattice lists neighbours within a row of each other: a row's width squared per
+body, N^2 on a square sheet); from it, by a sparse factorisation in nested dissection order (``cholesky``: N log N
+memory, about N^1.5 work), which answers the same to rounding (tests/test_planar_sparse.py).
 """
 
 from __future__ import annotations
