@@ -175,12 +175,17 @@ def factor(blocks, columns, rows, row_starts, row_slots, row_columns, where):
             where[rows[q]] = q
         for e in range(row_starts[j], row_starts[j + 1]):
             p, k = row_slots[e], row_columns[e]
+            # L_ij -= L_ik L_jk^T for the rows i >= j of column k, L_jk held in scalars (the loop's hot spot)
+            b00, b01, b02 = blocks[p, 0, 0], blocks[p, 0, 1], blocks[p, 0, 2]
+            b10, b11, b12 = blocks[p, 1, 0], blocks[p, 1, 1], blocks[p, 1, 2]
+            b20, b21, b22 = blocks[p, 2, 0], blocks[p, 2, 1], blocks[p, 2, 2]
             for q in range(p, columns[k + 1]):
-                target = where[rows[q]]
+                t = where[rows[q]]
                 for a in range(3):
-                    for b in range(3):
-                        blocks[target, a, b] -= (blocks[q, a, 0] * blocks[p, b, 0] + blocks[q, a, 1] * blocks[p, b, 1]
-                                                 + blocks[q, a, 2] * blocks[p, b, 2])
+                    x0, x1, x2 = blocks[q, a, 0], blocks[q, a, 1], blocks[q, a, 2]
+                    blocks[t, a, 0] -= x0 * b00 + x1 * b01 + x2 * b02
+                    blocks[t, a, 1] -= x0 * b10 + x1 * b11 + x2 * b12
+                    blocks[t, a, 2] -= x0 * b20 + x1 * b21 + x2 * b22
         d = blocks[columns[j]]
         l00 = d[0, 0]
         if not l00 > 0.0:
