@@ -54,10 +54,10 @@ class Driver:
                                                                   configs[i].shape.n_units), configs)
         cycles = max(first.learner_params.warmup_cycles, first.learner_params.discard_cycles,
                      first.learner_params.cycles_per_step) * first.shape.actuator.cycle_time
-        check_memory(first.shape, memory_estimate(first.shape, first.physics, first.environment,
+        scene = first.sensor.kind == "camera"
+        check_memory(first.shape, memory_estimate(first.shape, first.physics, first.environment, scene,
                                                   round(cycles / first.physics.timestep), len(configs)))
-        self.batch = make_world(first.shape, first.physics, first.environment, scene=first.sensor.kind == "camera",
-                                copies=len(configs))
+        self.batch = make_world(first.shape, first.physics, first.environment, scene=scene, copies=len(configs))
         self.records = [RunRecords(config) for config in configs]
         self.loops: dict[int, RunLoop] = self._each(
             lambda i, world: RunLoop(configs[i], controllers[i], world, on_tick), self.batch.worlds)

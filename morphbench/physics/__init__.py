@@ -108,13 +108,13 @@ def can_batch(shape, physics: PhysicsParams, environment: EnvironmentParams = En
 
 
 def memory_estimate(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams(),
-                    ticks: int = 0, copies: int = 1) -> float:
+                    scene: bool = False, ticks: int = 0, copies: int = 1) -> float:
     """bytes a run of ``shape`` holds that grow with its size: the pressures, rest lengths and friction limits of its
     longest advance (``ticks``, 8 bytes per tick and link or body in each), and the planar solver's Newton systems
     (copies of a batch hold that many)."""
     bodies, links = len(shape.bodies), len(shape.links)
     solver = PlanarWorld.solver_memory(bodies, links) \
-        if resolve_backend(shape, physics, environment) == PlanarWorld.backend else 0.0
+        if resolve_backend(shape, physics, environment, scene) == PlanarWorld.backend else 0.0
     return copies * (ticks * (4 * links + 2 * bodies) * 8 + solver)
 
 
