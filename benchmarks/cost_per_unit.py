@@ -40,13 +40,15 @@ def shape_of(kind: str, rows: int, columns: int):
     return shape_from_table({"assembly": assembly}, source=f"{kind}-{rows}x{columns}")
 
 
-def seconds_per_second(shape, physics, simulated: float, warm_up: float = 1.0, build=make_world) -> float:
+def seconds_per_second(shape, physics, simulated: float, warm_up: float = 1.0, build=make_world) -> tuple[float, float]:
+    """Wall and process CPU seconds per simulated second (on a shared machine the CPU time is what one core alone
+    would take: the wall time counts the waits for a core)."""
     with build(shape, physics) as world:
         world.set_phases(np.random.default_rng(0).random(shape.n_units))
         world.advance(world.ticks_in(warm_up))
-        started = time.perf_counter()
+        wall, cpu = time.perf_counter(), time.process_time()
         world.advance(world.ticks_in(simulated))
-        return (time.perf_counter() - started) / simulated
+        return (time.perf_counter() - wall) / simulated, (time.process_time() - cpu) / simulated
 
 
 def main() -> None:
@@ -67,24 +69,26 @@ def main() -> None:
             shape = shape_of(kind, rows, columns)
             with make_world(shape, DEFAULT_PHYSICS) as world:
                 backend = type(world).__name__
-            default = seconds_per_second(shape, DEFAULT_PHYSICS, args.seconds)
-            fast = seconds_per_second(shape, FAST_PHYSICS, args.seconds)
+            default = seconds_per_second(shape, DEFAULT_PHYSICS, args.seconds)[0]
+            fast = seconds_per_second(shape, FAST_PHYSICS, args.seconds)[0]
             name = f"chain-{columns}" if kind == "chain" else f"grid-{rows}x{columns}-xy"
             print(f"| {name} | {shape.n_units} | {len(shape.bodies)} | {backend} | {default:.4f} | {fast:.4f} |",
                   flush=True)
         print()
-    print("| square sheet | units | links | default wall s per simulated s | exponent from the sheet before |")
-    print("|---|---|---|---|---|")
+    print("| square sheet | units | links | default wall s per simulated s | CPU s per simulated s | "
+          "exponent (CPU) from the sheet before |")
+    print("|---|---|---|---|---|---|")
     costs = []
     build = (lambda shape, physics: PlanarWorld(shape, physics, sparse=False)) if args.banded else make_world
     for side in [side for side in SHEETS if side <= 32] if args.banded else SHEETS:
         shape = shape_of("sheet", side, side)
-        cost = seconds_per_second(shape, DEFAULT_PHYSICS, args.sheet_seconds, args.sheet_seconds / 4, build)
+        wall, cost = seconds_per_second(shape, DEFAULT_PHYSICS, args.sheet_seconds, args.sheet_seconds / 4, build)
         exponent = f"{np.log(cost / costs[-1][1]) / np.log(shape.n_units / costs[-1][0]):.2f}" if costs else ""
         costs.append((shape.n_units, cost))
-        print(f"| {side} x {side} | {shape.n_units} | {len(shape.links)} | {cost:.4f} | {exponent} |", flush=True)
+        print(f"| {side} x {side} | {shape.n_units} | {len(shape.links)} | {wall:.4f} | {cost:.4f} | {exponent} |",
+              flush=True)
     (first, low), (last, high) = costs[0], costs[-1]
-    print(f"\nexponent from {first} to {last} units: {np.log(high / low) / np.log(last / first):.2f}")
+    print(f"\nexponent (CPU) from {first} to {last} units: {np.log(high / low) / np.log(last / first):.2f}")
 
 
 if __name__ == "__main__":
