@@ -1,20 +1,15 @@
 """The planar solver's sparse path (physics/cholesky.py): the factorisation against numpy, the same motion as the
-banded solver on every library shape in one layer, the plane's symmetries on a sheet above SPARSE_FROM, and the
-limits of a shape's size (units, memory)."""
-
-from pathlib import Path
+banded solver on every library shape in one layer, the plane's symmetries on a sheet above SPARSE_FROM (the limits
+of a shape's size: tests/test_limits.py)."""
 
 import numpy as np
 import pytest
 
-from morphbench.errors import ConfigError
-from morphbench.experiment import RunConfig, run
-from morphbench.params import DEFAULT_PHYSICS, QUASISTATIC_PHYSICS, SensorParams
-from morphbench.physics import PlanarWorld, cholesky, memory_estimate, planar
+from morphbench.params import DEFAULT_PHYSICS, QUASISTATIC_PHYSICS
+from morphbench.physics import PlanarWorld, cholesky, planar
 from morphbench.shapes import load_shape, rotate, shape_from_table
 
-from conftest import SHAPES_DIR, run_cli
-from test_cli import EXIT_BAD_INPUT, assert_one_line_error
+from conftest import SHAPES_DIR
 from test_planar import mirrored
 from test_planar_seeds import planar_library
 
@@ -143,36 +138,3 @@ def test_a_mirrored_sheet_moves_as_the_mirror_image_on_the_sparse_path():
     assert np.abs(mirror[:, 0] - moved[:, 0]).max() < AGREE
     assert np.abs(mirror[:, 1] + moved[:, 1]).max() < AGREE
     assert np.abs(mirror[:, 2] + moved[:, 2]).max() < AGREE
-
-
-def test_the_memory_estimate_grows_with_the_shape():
-    small, large = sheet(10, 10), sheet(100, 100)
-    assert 0 < memory_estimate(small, DEFAULT_PHYSICS, ticks=480) < memory_estimate(large, DEFAULT_PHYSICS, ticks=480)
-    assert memory_estimate(large, DEFAULT_PHYSICS, ticks=480, copies=2) == \
-        2 * memory_estimate(large, DEFAULT_PHYSICS, ticks=480)
-
-
-def test_a_run_that_would_not_fit_in_memory_is_refused_before_it_starts(monkeypatch):
-    monkeypatch.setattr("morphbench.physics.available_memory", lambda: 2.0**20)
-    built = []
-    monkeypatch.setattr("morphbench.experiment.driver.make_world", lambda *a, **k: built.append(a))
-    with pytest.raises(ConfigError, match=r"sheet 10 x 10: assembly: expected an assembly whose run fits in the "
-                                          r"memory available \(1\.0 MiB\), got '100 bodies, an estimated \d+\.\d MiB'"):
-        run(RunConfig(shape=sheet(10, 10), seed=0, steps=1, sensor=SensorParams(kind="ideal")))
-    assert not built
-
-
-def test_the_command_line_refuses_it_in_one_line(tmp_path: Path, capsys, monkeypatch):
-    monkeypatch.setattr("morphbench.physics.available_memory", lambda: 2.0**20)
-    shape = tmp_path / "sheet.toml"
-    shape.write_text('[assembly]\ngenerator = "grid"\nrows = 10\ncolumns = 10\ndummy = false\n')
-    code, _, err = run_cli(capsys, "run", str(shape), "--out", str(tmp_path / "out"), "--steps", "1", "--quiet")
-    assert code == EXIT_BAD_INPUT
-    assert_one_line_error(err, str(shape), "assembly", "fits in the memory available", "an estimated")
-    assert not (tmp_path / "out" / "summary.json").exists()
-
-
-def test_a_shape_beyond_the_limit_is_refused_saying_why():
-    with pytest.raises(ConfigError, match="at most 100000 active units in all .rows x columns = 100489; a larger "
-                                          "assembly takes over an hour per simulated second"):
-        sheet(317, 317)
