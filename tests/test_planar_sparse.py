@@ -6,16 +6,20 @@ import numpy as np
 import pytest
 
 from morphbench.params import DEFAULT_PHYSICS, QUASISTATIC_PHYSICS
-from morphbench.physics import PlanarWorld, cholesky, planar
+from morphbench.errors import ConfigError
+from morphbench.physics import PlanarWorld, check_one_layer, cholesky, planar
 from morphbench.shapes import load_shape, rotate, shape_from_table
 
 from conftest import SHAPES_DIR
 from test_planar import mirrored
-from test_planar_seeds import planar_library
 
 AGREE = 1e-9
 """m (and rad), how far the two solvers' poses may part over a run of 480 ticks: each tick's answer balances forces
 to FORCE_TOLERANCE (1e-10 N), which moves a body by at most about 1e-12 m against the softest spring (100 N/m)."""
+TIE = 1e-7
+"""m, the same for a shape with a piece whose bodies' frictions tie (chains cut into a piece of 2 or 3 bodies): the
+energy is flat along that piece's common slide, so answers meeting the same force tolerance part by more (2e-8 m
+over 480 ticks; the other library shapes within 1e-9)."""
 
 
 def sheet(rows: int, columns: int):
@@ -90,7 +94,19 @@ def both(shape, physics=QUASISTATIC_PHYSICS):
     return PlanarWorld(shape, physics, sparse=True), PlanarWorld(shape, physics, sparse=False)
 
 
-@pytest.mark.parametrize("name", planar_library())
+def one_layer_library() -> list[str]:
+    """Every library shape the planar world can hold (chains too, whose default is the chain solver)."""
+    names = []
+    for path in sorted(SHAPES_DIR.glob("*.toml")):
+        try:
+            check_one_layer(load_shape(path))
+        except ConfigError:
+            continue
+        names.append(path.stem)
+    return names
+
+
+@pytest.mark.parametrize("name", one_layer_library())
 def test_the_sparse_path_moves_every_library_shape_as_the_banded_one(name):
     shape = load_shape(SHAPES_DIR / f"{name}.toml")
     phases = np.random.default_rng(len(name)).random(shape.n_units)
@@ -102,14 +118,14 @@ def test_the_sparse_path_moves_every_library_shape_as_the_banded_one(name):
         world.advance(world.ticks_in(2.0))
         assert world.unconverged_ticks == 0
     sparse, banded = worlds
-    assert np.abs(sparse.q - banded.q).max() < AGREE
+    assert np.abs(sparse.q - banded.q).max() < (TIE if name.startswith("chain") else AGREE)
     assert abs(sparse.newton_steps - banded.newton_steps) <= 0.01 * banded.newton_steps
 
 
 def test_a_sheet_takes_the_sparse_path_and_a_library_shape_the_banded_one():
     assert len(sheet(12, 11).bodies) >= planar.SPARSE_FROM
     assert PlanarWorld(sheet(12, 11), QUASISTATIC_PHYSICS).sparse
-    for name in planar_library():  # so the library's records stay bit for bit what they were
+    for name in one_layer_library():  # so the library's records stay bit for bit what they were
         assert not PlanarWorld(load_shape(SHAPES_DIR / f"{name}.toml"), QUASISTATIC_PHYSICS).sparse
 
 
