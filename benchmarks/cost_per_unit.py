@@ -1,10 +1,15 @@
 """Wall time per simulated second against the number of units, on the default physics and on PyBullet fast.
 
-    python benchmarks/cost_per_unit.py            # chains and grids of 1 to 100 units, 20 simulated s each
+    python benchmarks/cost_per_unit.py            # chains and grids of 1 to 100 units, 20 simulated s each;
+                                                  # then square sheets of 100 to 10,000 units, 2 simulated s each
+    python benchmarks/cost_per_unit.py --sheets-only --sheet-seconds 1
+    python benchmarks/cost_per_unit.py --sheets-only --banded    # the sheets on the banded solver, up to 1,024 units
 
 Each row builds the shape, sets random phases (seed 0) and times ``advance`` over the simulated time (pressures,
-link forces or solves, friction; no sensing or learning), after a warm-up second that loads numba's cache. Prints a
-Markdown table for benchmarks/RESULTS.md.
+link forces or solves, friction; no sensing or learning), after a warm-up (a second, a quarter of the time for a
+sheet) that loads numba's cache. The sheets (no dummies, bellows along x and y) run on the default physics only, with
+the exponent of the cost against the number of units between each sheet and the one before, and from the first to
+the last. Prints Markdown tables for benchmarks/RESULTS.md.
 """
 
 from __future__ import annotations
@@ -16,7 +21,7 @@ import time
 import numpy as np
 
 from morphbench.params import DEFAULT_PHYSICS, FAST_PHYSICS
-from morphbench.physics import make_world
+from morphbench.physics import PlanarWorld, make_world
 from morphbench.shapes import shape_from_table
 
 SHAPES = [
@@ -25,38 +30,65 @@ SHAPES = [
 ]
 
 
+SHEETS = [10, 20, 32, 64, 100]
+"""sides of the square sheets: 100, 400, 1,024, 4,096 and 10,000 units."""
+
+
 def shape_of(kind: str, rows: int, columns: int):
     assembly = {"generator": "chain", "units": columns} if kind == "chain" else \
-        {"generator": "grid", "rows": rows, "columns": columns, "actuated_axes": ["x", "y"]}
+        {"generator": "grid", "rows": rows, "columns": columns, "actuated_axes": ["x", "y"], "dummy": kind != "sheet"}
     return shape_from_table({"assembly": assembly}, source=f"{kind}-{rows}x{columns}")
 
 
-def seconds_per_second(shape, physics, simulated: float) -> float:
-    with make_world(shape, physics) as world:
+def seconds_per_second(shape, physics, simulated: float, warm_up: float = 1.0, build=make_world) -> tuple[float, float]:
+    """Wall and process CPU seconds per simulated second (on a shared machine the CPU time is what one core alone
+    would take: the wall time counts the waits for a core)."""
+    with build(shape, physics) as world:
         world.set_phases(np.random.default_rng(0).random(shape.n_units))
-        world.advance(world.ticks_in(1.0))
-        started = time.perf_counter()
+        world.advance(world.ticks_in(warm_up))
+        wall, cpu = time.perf_counter(), time.process_time()
         world.advance(world.ticks_in(simulated))
-        return (time.perf_counter() - started) / simulated
+        return (time.perf_counter() - wall) / simulated, (time.process_time() - cpu) / simulated
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per row")
+    parser.add_argument("--sheet-seconds", type=float, default=2.0, help="simulated seconds per sheet")
+    parser.add_argument("--sheets-only", action="store_true", help="only the square sheets")
+    parser.add_argument("--banded", action="store_true", help="the sheets of up to 1,024 units on the planar "
+                        "solver's banded path (what every shape had before the sparse one; beyond, its dense "
+                        "Hessians take gigabytes)")
     args = parser.parse_args()
     print(f"# {time.strftime('%Y-%m-%d')} {platform.machine()}  python {platform.python_version()}")
-    print("| shape | units | bodies | default backend | default wall s per simulated s | "
-          "PyBullet fast wall s per simulated s |")
+    if not args.sheets_only:
+        print("| shape | units | bodies | default backend | default wall s per simulated s | "
+              "PyBullet fast wall s per simulated s |")
+        print("|---|---|---|---|---|---|")
+        for kind, rows, columns in SHAPES:
+            shape = shape_of(kind, rows, columns)
+            with make_world(shape, DEFAULT_PHYSICS) as world:
+                backend = type(world).__name__
+            default = seconds_per_second(shape, DEFAULT_PHYSICS, args.seconds)[0]
+            fast = seconds_per_second(shape, FAST_PHYSICS, args.seconds)[0]
+            name = f"chain-{columns}" if kind == "chain" else f"grid-{rows}x{columns}-xy"
+            print(f"| {name} | {shape.n_units} | {len(shape.bodies)} | {backend} | {default:.4f} | {fast:.4f} |",
+                  flush=True)
+        print()
+    print("| square sheet | units | links | default wall s per simulated s | CPU s per simulated s | "
+          "exponent (CPU) from the sheet before |")
     print("|---|---|---|---|---|---|")
-    for kind, rows, columns in SHAPES:
-        shape = shape_of(kind, rows, columns)
-        with make_world(shape, DEFAULT_PHYSICS) as world:
-            backend = type(world).__name__
-        default = seconds_per_second(shape, DEFAULT_PHYSICS, args.seconds)
-        fast = seconds_per_second(shape, FAST_PHYSICS, args.seconds)
-        name = f"chain-{columns}" if kind == "chain" else f"grid-{rows}x{columns}-xy"
-        print(f"| {name} | {shape.n_units} | {len(shape.bodies)} | {backend} | {default:.4f} | {fast:.4f} |",
+    costs = []
+    build = (lambda shape, physics: PlanarWorld(shape, physics, sparse=False)) if args.banded else make_world
+    for side in [side for side in SHEETS if side <= 32] if args.banded else SHEETS:
+        shape = shape_of("sheet", side, side)
+        wall, cost = seconds_per_second(shape, DEFAULT_PHYSICS, args.sheet_seconds, args.sheet_seconds / 4, build)
+        exponent = f"{np.log(cost / costs[-1][1]) / np.log(shape.n_units / costs[-1][0]):.2f}" if costs else ""
+        costs.append((shape.n_units, cost))
+        print(f"| {side} x {side} | {shape.n_units} | {len(shape.links)} | {wall:.4f} | {cost:.4f} | {exponent} |",
               flush=True)
+    (first, low), (last, high) = costs[0], costs[-1]
+    print(f"\nexponent (CPU) from {first} to {last} units: {np.log(high / low) / np.log(last / first):.2f}")
 
 
 if __name__ == "__main__":

@@ -16,7 +16,9 @@ from morphbench import params as P
 from morphbench import rules as R
 from morphbench.cli import EXIT_BAD_INPUT
 from morphbench.errors import ConfigError
-from morphbench.experiment import RunConfig
+from morphbench.experiment import RunConfig, run
+from morphbench.physics import memory_estimate
+from morphbench.shapes import shape_from_table
 
 from conftest import PARAMETER_CLASSES, ROOT, SHAPES_DIR, chain, run_cli
 
@@ -203,3 +205,47 @@ def test_an_event_after_the_last_step_is_refused_in_a_run_file_and_after_steps(t
     error = _one_line_error(capsys, "run", str(path), "--quiet", "--out", str(out))
     assert f"{path}: events[0].step: expected a learning step <= the run's steps (40)" in error
     assert not out.exists()
+
+
+def sheet(rows: int, columns: int):
+    return shape_from_table({"assembly": {"generator": "grid", "rows": rows, "columns": columns, "dummy": False,
+                                          "actuated_axes": ["x", "y"]}}, source=f"sheet {rows} x {columns}")
+
+
+def test_the_memory_estimate_grows_with_the_shape():
+    small, large = sheet(10, 10), sheet(100, 100)
+    assert 0 < memory_estimate(small, P.DEFAULT_PHYSICS, ticks=480) < \
+        memory_estimate(large, P.DEFAULT_PHYSICS, ticks=480)
+    assert memory_estimate(large, P.DEFAULT_PHYSICS, ticks=480, copies=2) == \
+        2 * memory_estimate(large, P.DEFAULT_PHYSICS, ticks=480)
+
+
+def test_a_run_that_would_not_fit_in_memory_is_refused_before_it_starts(monkeypatch):
+    monkeypatch.setattr("morphbench.physics.available_memory", lambda: 2.0**20)
+    built = []
+    monkeypatch.setattr("morphbench.experiment.driver.make_world", lambda *a, **k: built.append(a))
+    with pytest.raises(ConfigError, match=r"sheet 10 x 10: assembly: expected an assembly whose run fits in the "
+                                          r"memory available \(1\.0 MiB\), got '100 bodies, an estimated \d+\.\d MiB'"):
+        run(RunConfig(shape=sheet(10, 10), seed=0, steps=1, sensor=P.SensorParams(kind="ideal")))
+    assert not built
+
+
+def test_the_command_line_refuses_it_in_one_line(tmp_path: Path, capsys, monkeypatch):
+    monkeypatch.setattr("morphbench.physics.available_memory", lambda: 2.0**20)
+    shape = tmp_path / "sheet.toml"
+    shape.write_text('[assembly]\ngenerator = "grid"\nrows = 10\ncolumns = 10\ndummy = false\n')
+    error = _one_line_error(capsys, "run", str(shape), "--out", str(tmp_path / "out"), "--steps", "1", "--quiet")
+    assert f"{shape}: assembly: expected an assembly whose run fits in the memory available (1.0 MiB)" in error
+    assert "got '100 bodies, an estimated" in error
+    assert not (tmp_path / "out" / "summary.json").exists()
+
+
+def test_a_shape_beyond_the_limit_is_refused_saying_why(tmp_path, capsys):
+    shape = tmp_path / "large.toml"
+    shape.write_text('[assembly]\ngenerator = "grid"\nrows = 317\ncolumns = 317\n')
+    error = _one_line_error(capsys, "run", str(shape), "--out", str(tmp_path / "out"), "--quiet")
+    assert error == (f"morphbench: error: {shape}: assembly.columns: expected at most 100000 active units in all "
+                     "(rows x columns = 100489; a larger assembly takes over an hour per simulated second), got 317")
+    with pytest.raises(ConfigError, match="at most 100000 active units in all .rows x columns = 100489; a larger "
+                                          "assembly takes over an hour per simulated second"):
+        sheet(317, 317)

@@ -24,7 +24,7 @@ from morphbench.experiment.clocks import Schedule, clocked
 from morphbench.experiment.records import RunRecords
 from morphbench.experiment.run import RunConfig, RunLoop
 from morphbench.learning import Controller, load_learner_class, make_controller
-from morphbench.physics import WorldInterface, can_batch, make_world
+from morphbench.physics import WorldInterface, can_batch, check_memory, make_world, memory_estimate
 
 
 def batchable(config: RunConfig) -> bool:
@@ -53,8 +53,12 @@ class Driver:
             controllers = self._each(lambda i, _: make_controller(load_learner_class(configs[i].learner),
                                                                   configs[i].learner_params, configs[i].seed,
                                                                   configs[i].shape.n_units), configs)
-        self.batch = make_world(first.shape, first.physics, first.environment, scene=first.sensor.kind == "camera",
-                                copies=len(configs))
+        cycles = max(first.learner_params.warmup_cycles, first.learner_params.discard_cycles,
+                     first.learner_params.cycles_per_step) * first.shape.actuator.cycle_time
+        scene = first.sensor.kind == "camera"
+        check_memory(first.shape, memory_estimate(first.shape, first.physics, first.environment, scene,
+                                                  round(cycles / first.physics.timestep), len(configs)))
+        self.batch = make_world(first.shape, first.physics, first.environment, scene=scene, copies=len(configs))
         self.records = [RunRecords(config) for config in configs]
         self.loops: dict[int, RunLoop] = self._each(
             lambda i, world: RunLoop(configs[i], controllers[i], world, on_tick), self.batch.worlds)

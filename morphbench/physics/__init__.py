@@ -126,6 +126,45 @@ def can_batch(shape, physics: PhysicsParams, environment: EnvironmentParams = En
         return False
 
 
+def memory_estimate(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams(),
+                    scene: bool = False, ticks: int = 0, copies: int = 1) -> float:
+    """bytes a run of ``shape`` holds that grow with its size: the pressures, rest lengths and friction limits of its
+    longest advance (``ticks``, 8 bytes per tick and link or body in each), and the planar solver's Newton systems
+    (copies of a batch hold that many)."""
+    bodies, links = len(shape.bodies), len(shape.links)
+    solver = PlanarWorld.solver_memory(bodies, links) \
+        if resolve_backend(shape, physics, environment, scene) == PlanarWorld.backend else 0.0
+    return copies * (ticks * (4 * links + 2 * bodies) * 8 + solver)
+
+
+def available_memory() -> float:
+    """bytes this machine can give a new run now: MemAvailable of /proc/meminfo (Linux), else its free pages, else
+    unknown (inf)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):
+        return float("inf")
+
+
+def check_memory(shape, needed: float) -> None:
+    """A ConfigError naming the shape if ``needed`` bytes (``memory_estimate``) exceed ``available_memory``."""
+    available = available_memory()
+    if needed > available:
+        raise ConfigError(shape.source, "assembly", f"an assembly whose run fits in the memory available "
+                          f"({_size(available)})", f"{len(shape.bodies)} bodies, an estimated {_size(needed)}")
+
+
+def _size(size: float) -> str:
+    return f"{size / 2**30:.2f} GiB" if size >= 2**30 else f"{size / 2**20:.1f} MiB"
+
+
 def make_world(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams(),
                scene: bool = False, copies: int | None = None) -> WorldInterface | Batch:
     """A world of ``shape`` on the backend ``resolve_backend`` picks. With ``copies``, a Batch whose ``worlds`` are
@@ -141,5 +180,6 @@ def make_world(shape, physics: PhysicsParams, environment: EnvironmentParams = E
     return BATCHING[backend](shape, physics, environment, copies)
 
 
-__all__ = ["BACKENDS", "Batch", "PlanarWorld", "QuasiStaticWorld", "Scene", "World", "WorldInterface", "can_batch",
-           "make_world", "pressure_trajectory", "pump_on", "quasistatic_world", "resolve_backend"]
+__all__ = ["BACKENDS", "Batch", "PlanarWorld", "QuasiStaticWorld", "Scene", "World", "WorldInterface",
+           "available_memory", "can_batch", "check_memory", "make_world", "memory_estimate", "pressure_trajectory",
+           "pump_on", "quasistatic_world", "resolve_backend"]

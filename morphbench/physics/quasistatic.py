@@ -36,17 +36,14 @@ def chain_axis(shape: Shape) -> np.ndarray:
     positions = np.array([body.position for body in shape.bodies], dtype=float)
     if not shape.links:
         return np.array([1.0, 0.0, 0.0])
-    directions = [(positions[link.front] - positions[link.rear]) for link in shape.links]
-    axis = directions[0] / np.linalg.norm(directions[0])
-    degree = np.zeros(len(shape.bodies), dtype=int)
-    for link, direction in zip(shape.links, directions):
-        degree[link.front] += 1
-        degree[link.rear] += 1
-        if np.linalg.norm(np.cross(axis, direction / np.linalg.norm(direction))) > _AXIS_TOLERANCE:
-            break
-    else:
-        if degree.max() <= 2:
-            return axis
+    front = np.array([link.front for link in shape.links])
+    rear = np.array([link.rear for link in shape.links])
+    directions = positions[front] - positions[rear]
+    directions /= np.linalg.norm(directions, axis=1)[:, None]
+    axis = directions[0]
+    degree = np.bincount(np.concatenate([front, rear]), minlength=len(shape.bodies))
+    if np.linalg.norm(np.cross(axis, directions), axis=1).max() <= _AXIS_TOLERANCE and degree.max() <= 2:
+        return axis
     raise ConfigError(shape.source, "assembly", "a chain (every link on one axis) for the quasi-static physics; "
                       "use --physics fast or reference for grids, stacks and branched shapes")
 

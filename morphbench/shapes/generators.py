@@ -34,8 +34,11 @@ from morphbench.errors import ConfigError
 from morphbench.params import ActuatorParams, DummyParams, UnitParams
 from morphbench.shapes.model import Body, Link
 
-MAX_UNITS = 200
-"""Most active units in one assembly (whatever the generator)."""
+MAX_UNITS = 100_000
+"""Most active units in one assembly (whatever the generator): the planar solver's work per tick grows as N^1.5
+(benchmarks/RESULTS.md), so a larger sheet would take over an hour per simulated second on one core."""
+TOO_MANY = "a larger assembly takes over an hour per simulated second"
+"""why MAX_UNITS, in the messages that refuse more."""
 MAX_BODIES = 2 * MAX_UNITS
 """Most bodies (active units and dummies) in one assembly."""
 MAX_SITE = 1000
@@ -161,10 +164,11 @@ def custom(units: list[CustomUnit], links: list[CustomLink], unit: UnitParams, d
         raise ConfigError(source, "units", "at least one [[units]] table")
     n = len(units)
     if n > MAX_BODIES:
-        raise ConfigError(source, "units", f"at most {MAX_BODIES} [[units]] tables", n)
+        raise ConfigError(source, "units", f"at most {MAX_BODIES} [[units]] tables ({TOO_MANY})", n)
     n_active = sum(not u.dummy for u in units)
     if not 1 <= n_active <= MAX_UNITS:
-        raise ConfigError(source, "units", f"between 1 and {MAX_UNITS} [[units]] tables without dummy = true", n_active)
+        raise ConfigError(source, "units", f"between 1 and {MAX_UNITS} [[units]] tables without dummy = true "
+                          f"({TOO_MANY})", n_active)
     taken: dict[tuple[int, int, int], int] = {}
     for i, entry in enumerate(units):
         if entry.at in taken:

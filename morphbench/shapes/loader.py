@@ -110,7 +110,8 @@ from morphbench.readers import check_keys, field_default, params_from_dict, para
 from morphbench.rules import check, check_rule, expected
 from morphbench.shapes.checks import check_shape
 from morphbench.shapes.export import PRIMITIVES, check_mesh
-from morphbench.shapes.generators import MAX_BODIES, MAX_SITE, MAX_UNITS, CustomLink, CustomUnit, chain, custom, lattice
+from morphbench.shapes.generators import (MAX_BODIES, MAX_SITE, MAX_UNITS, TOO_MANY, CustomLink, CustomUnit, chain,
+                                          custom, lattice)
 from morphbench.shapes.model import Shape
 from morphbench.shapes.transforms import PLANES, cut_apart, rotate, shuffle
 
@@ -186,8 +187,8 @@ def _generate(generator: str, assembly: dict[str, Any], unit: UnitParams, dummy:
         columns = _count(assembly, "columns", source, f"an integer number of units per row in [1, {MAX_UNITS}]")
         if layers * rows * columns > MAX_UNITS:
             product = ("layers x " if generator == "lattice" else "") + f"rows x columns = {layers * rows * columns}"
-            raise ConfigError(source, "assembly.columns", f"at most {MAX_UNITS} active units in all ({product})",
-                              columns)
+            raise ConfigError(source, "assembly.columns", f"at most {MAX_UNITS} active units in all ({product}; "
+                              f"{TOO_MANY})", columns)
         dims = (layers, rows, columns)
     if not isinstance(has_dummy, bool):
         raise ConfigError(source, "assembly.dummy", "true or false", has_dummy)
@@ -208,7 +209,8 @@ def _generate(generator: str, assembly: dict[str, Any], unit: UnitParams, dummy:
 def _count(assembly: dict[str, Any], key: str, source: str, expected: str) -> int:
     value = assembly.get(key)
     if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= MAX_UNITS:
-        raise ConfigError(source, f"assembly.{key}", expected, value if key in assembly else ...)
+        why = f" ({TOO_MANY})" if not isinstance(value, bool) and isinstance(value, int) and value > MAX_UNITS else ""
+        raise ConfigError(source, f"assembly.{key}", expected + why, value if key in assembly else ...)
     return value
 
 
@@ -220,7 +222,7 @@ def _custom_tables(table: dict[str, Any], source: str, base: Path) -> tuple[list
         raise ConfigError(source, "units", 'one or more [[units]] tables (generator = "custom" places each body at a '
                           "lattice site, at = [i, j, k])", entries if "units" in table else ...)
     if len(entries) > MAX_BODIES:
-        raise ConfigError(source, "units", f"at most {MAX_BODIES} [[units]] tables", len(entries))
+        raise ConfigError(source, "units", f"at most {MAX_BODIES} [[units]] tables ({TOO_MANY})", len(entries))
     units = []
     for i, entry in enumerate(entries):
         where = f"units[{i}]"
