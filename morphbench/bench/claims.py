@@ -778,6 +778,8 @@ def _hardware_gait(tables: dict) -> Measured | str:
 T, F = {"learner": "thermal"}, {"learner": "flaky"}
 UNIFORM = {"environment": "uniform"}
 FIELD = {"environment": "friction-field"}
+ONE_X_FRICTION = {"environment_id": M._default_ground()}
+"""S7's ground at 1x friction: the default one, whose runs S4's uniform ground shares (and names)."""
 
 CLAIMS: tuple[Claim, ...] = (
     # S2: the 2-unit curve (Fig. 1G)
@@ -893,11 +895,11 @@ CLAIMS: tuple[Claim, ...] = (
     Claim("S7-flaky-resets", "S7", "... where Flaky's memory resets almost at once and it accepts nearly any phase "
           "(measured: Flaky's mean acceptance at 1.5x friction minus at 1x).", 0.0, "",
           _versus("S7", metric("acceptance_mean"), {**F, "environment": "friction-1.5"},
-                  {**F, "environment": "friction-1"}), 0.0, "at least", "A More Robust Learning Strategy"),
+                  {**F, **ONE_X_FRICTION}), 0.0, "at least", "A More Robust Learning Strategy"),
     Claim("S7-flaky-struggles", "S7", "... so Flaky starts to have problems (measured: Flaky's final Ubar as a "
           "fraction of its landscape's best, 1.5x friction minus 1x).", 0.0, "",
           _versus("S7", metric("learned_fraction"), {**F, "environment": "friction-1.5"},
-                  {**F, "environment": "friction-1"}), 0.0, "at most", "A More Robust Learning Strategy"),
+                  {**F, **ONE_X_FRICTION}), 0.0, "at most", "A More Robust Learning Strategy"),
     # S8: 7 units (Fig. 4A-B)
     Claim("S8-level", "S8", "With 7 units the average velocity is about 2.5 mm/cycle (measured: final Ubar).", 2.5,
           "mm/cycle", _of("S8", final_ubar, n_units=7, **T), 1.0, "within", "Fig. 4B"),
