@@ -75,3 +75,25 @@ def test_a_directory_without_metrics_is_a_clear_error(two_backends, tmp_path, ca
     code, _, err = run_cli(capsys, "report", str(two_backends[0]), "--compare", str(tmp_path), str(two_backends[1]))
     assert code == 2
     assert "metrics.parquet" in err and str(tmp_path) in err and "Traceback" not in err
+
+
+def test_the_claims_page_lists_exactly_the_verdicts_that_differ(two_backends):
+    """benchmarks/claims_backends.py: each backend's claims as its report counts them, and the differing ones."""
+    import importlib.util
+    from pathlib import Path
+
+    from morphbench.bench.report import claims_of
+
+    spec = importlib.util.spec_from_file_location(
+        "claims_backends", Path(__file__).resolve().parents[1] / "benchmarks" / "claims_backends.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    first, second = (claims_of(out) for out in two_backends)
+    report = (two_backends[0] / "report.md").read_text()
+    assert f"{sum(v.holds is True for v in first)} of {len(first)} claims hold" in report
+    text = module.page(*two_backends)
+    differ = [x.claim.id for x, y in zip(first, second) if x.holds != y.holds]
+    assert f"{len(differ)} verdicts differ" in text
+    claims_table = text.split("verdicts differ:")[1].split("Condition by condition")[0]
+    listed = [line.split(" | ")[0][2:] for line in claims_table.splitlines()[3:] if line.startswith("| ")]
+    assert listed == differ

@@ -536,6 +536,15 @@ def _scan_section(plan: dict, scans: pd.DataFrame, figures: Path) -> list[str]:
     return lines + [""] + [p + "\n" for p in pictures]
 
 
+def claims_of(out: str | Path) -> list[C.Verdict]:
+    """The paper's claims measured on the results directory ``out``, as its report measures them."""
+    store = Store(out)
+    tables = store.consolidate(store.require_plan())
+    steps = tables["steps"]
+    return C.check({**tables, "metrics": M.condition_metrics(steps, tables["runs"], tables["scans"]),
+                    "curves": M.curves(steps)})
+
+
 def _claims_section(tables: dict[str, pd.DataFrame]) -> list[str]:
     """The paper's quantitative statements against what the tables measure (morphbench.bench.claims)."""
     lines = ["## Claims", "",
