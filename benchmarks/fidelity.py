@@ -1,7 +1,7 @@
 """Physics fidelity: convergence, agreement with the quasi-static limit, invariants and the paper's first result,
 for the PyBullet default and the quasi-static backend. Writes docs/fidelity.md.
 
-    python benchmarks/fidelity.py --workers 2        # about 15 minutes on 2 cores
+    python benchmarks/fidelity.py --workers 2        # about 3 minutes on 2 cores
 """
 
 from __future__ import annotations
