@@ -130,7 +130,8 @@ def test_the_standard_set_reads_and_each_task_is_one_condition_per_learner():
     assert len(suite.experiments) == 16
     for experiment in suite.experiments:
         learners = {suite.runs[r].condition["learner"] for r in experiment.run_ids}
-        assert learners == {"thermal", "flaky", "random"} and len(experiment.condition_ids) == 3, experiment.name
+        built_ins = {"thermal", "flaky", "averaged", "adaptive", "random"}
+        assert learners == built_ins and len(experiment.condition_ids) == len(built_ins), experiment.name
     backends = {suite.runs[r].config.shape.source.rsplit("/", 1)[-1] for r in suite.runs}
     assert {"chain-2.toml", "chain-20.toml", "grid-2x2.toml", "ring-8.toml", "t-5.toml",
             "stack-2x2x2.toml"} <= backends
