@@ -16,6 +16,7 @@ import pytest
 
 from morphbench.bench import scores as S
 from morphbench.bench.leaderboard import learner_suite, reference_path, standard_suite
+from morphbench.learning import plugins
 from morphbench.bench.suite import load_suite
 from morphbench.errors import ConfigError
 
@@ -55,23 +56,8 @@ class Broken:
     def update(self, velocity):
         return False
 """
-GREEDY = """
-class Greedy:
-    def __init__(self, params, rng):
-        self.rng, self.step_size = rng, params.step_size
-        self.phase, self.memory = float(rng.uniform(0.0, 1.0)), float("-inf")
-        self.trial = self.phase
-
-    def propose(self):
-        self.trial = (self.phase + self.rng.uniform(-1.0, 1.0) * self.step_size) % 1.0
-        return self.trial
-
-    def update(self, velocity):
-        if velocity > self.memory:
-            self.phase, self.memory = self.trial, velocity
-            return True
-        return False
-"""
+GREEDY = plugins.__doc__.split("# my_learners.py")[1].split("\n", 1)[1]
+"""the documented plug-in example (morphbench.learning.plugins), a greedy learner."""
 
 
 # --- the scoring, on a stored fixture --------------------------------------------------------------------------------
