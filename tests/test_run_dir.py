@@ -20,6 +20,10 @@ from morphbench.files import replace_directory
 
 from conftest import ROOT, SHAPES_DIR, run_cli
 
+PATIENCE_S = 300.0
+"""How long a test waits for a command before it gives up (a hang, not a measurement: a cold checkout compiles its
+numba functions first, slowly on a loaded machine)."""
+
 CHAIN2 = str(SHAPES_DIR / "chain-2.toml")
 RUN_FILES = {"units.parquet", "steps.parquet", "pieces.parquet", "summary.json", "learning_curve.png",
              "trajectory.png"}
@@ -119,7 +123,7 @@ def test_ctrl_c_during_a_run_is_one_line_and_leaves_the_old_run(tmp_path: Path, 
                    "--overwrite")
     time.sleep(4)  # imports and a few steps
     process.send_signal(signal.SIGINT)
-    stdout, stderr = process.communicate(timeout=60)
+    stdout, stderr = process.communicate(timeout=PATIENCE_S)
     assert process.returncode == EXIT_INTERRUPTED, stderr
     assert stdout == ""
     assert stderr == f"morphbench: interrupted; nothing of this run was written to {out}\n"
@@ -134,7 +138,7 @@ def test_a_killed_overwrite_leaves_the_old_run_or_the_new_one(tmp_path: Path, ca
     assert run_cli(capsys, "run", CHAIN2, "--steps", "2", "--quiet", "--out", str(out))[0] == 0
     started = time.perf_counter()
     process = _cli("run", CHAIN2, "--steps", "60", "--quiet", "--out", str(out), "--overwrite")
-    process.communicate(timeout=120)
+    process.communicate(timeout=PATIENCE_S)
     full = time.perf_counter() - started
     assert process.returncode == 0 and _assert_one_complete_run(out, {60}) == 60
     rng = random.Random(13)
@@ -144,7 +148,7 @@ def test_a_killed_overwrite_leaves_the_old_run_or_the_new_one(tmp_path: Path, ca
         process = _cli("run", CHAIN2, "--steps", str(steps), "--quiet", "--out", str(out), "--overwrite")
         time.sleep(rng.uniform(0.5 * full, 1.1 * full))
         process.kill()
-        process.communicate(timeout=60)
+        process.communicate(timeout=PATIENCE_S)
         _assert_one_complete_run(out, {before, steps})
     # a killed run leaves at most its hidden temporary directory beside the run
     assert all(name == "run" or name.startswith(".run.tmp-") for name in os.listdir(tmp_path))
