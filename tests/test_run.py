@@ -184,3 +184,27 @@ def test_auto_gives_a_stack_the_substeps_its_springs_need():
         assert world.physics.substeps == FAST_PHYSICS.substeps == 1
     with make_world(chain, DEFAULT_PHYSICS) as world:
         assert world.physics == DEFAULT_PHYSICS
+
+
+class _InterruptedCleanUp:
+    """A learner whose propose meets Ctrl-C inside a library that turns it into another error while cleaning up (as
+    numba does when compiling)."""
+
+    def __init__(self, params, rng):
+        self.phase = 0.0
+
+    def propose(self):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise RuntimeError("no compiled object yet") from None
+
+    def update(self, velocity):
+        return False
+
+
+def test_ctrl_c_that_a_library_turned_into_another_error_is_still_an_interrupt():
+    config = RunConfig(shape=load_shape(SHAPES_DIR / "chain-2.toml"), steps=3,
+                       learner=f"{__name__}:_InterruptedCleanUp")
+    with pytest.raises(KeyboardInterrupt):
+        run(config)

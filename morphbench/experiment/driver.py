@@ -84,6 +84,8 @@ class Driver:
         try:
             action()
         except (Exception, SystemExit) as exc:  # the run's failure, as run() raises it
+            if _interrupted(exc):
+                raise KeyboardInterrupt from exc
             self.outcome[index] = exc
 
     def going(self) -> bool:
@@ -135,6 +137,18 @@ class Driver:
         self.batch.close()
 
 
+def _interrupted(exc: BaseException) -> bool:
+    """Whether Ctrl-C is behind ``exc``: a library (numba, compiling) or a wrapper may turn a KeyboardInterrupt into
+    another error while cleaning up; it is still the user's interrupt, not the run's failure."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
 def run_batch(configs: list[RunConfig], progress: Callable[[int, RunRecords], None] | None = None,
               on_tick: Callable[[WorldInterface], None] | None = None) -> list[RunRecords | BaseException]:
     """Run ``configs`` (equal but for their seeds; more than one only if ``batchable``) together; per configuration
@@ -144,6 +158,8 @@ def run_batch(configs: list[RunConfig], progress: Callable[[int, RunRecords], No
     with driver.batch:
         driver.warm_up()
         for step in range(configs[0].steps + 1):
+            if not driver.going():  # every run has stopped: nothing left to simulate
+                break
             driver.step(step)
             if progress is not None:
                 for index, record in enumerate(driver.records):
