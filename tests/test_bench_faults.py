@@ -36,7 +36,7 @@ from conftest import ROOT, SHAPES_DIR, write_suite
 CHAIN2, CHAIN3 = SHAPES_DIR / "chain-2.toml", SHAPES_DIR / "chain-3.toml"
 DEAD_PID = 4194305
 """Above the largest process id Linux gives (pid_max is at most 2**22): no process has it."""
-PATIENCE_S = 300.0
+PATIENCE_S = 120.0
 """How long a test waits for another process before it gives up (a hang, not a measurement: a cold checkout compiles
 its numba functions first, slowly on a loaded machine)."""
 
@@ -415,6 +415,8 @@ def test_a_directory_refused_gets_no_lock_file(tmp_path):
 # --- Ctrl-C and a killed bench ----------------------------------------------------------------------------------------
 
 
+@pytest.mark.xfail(strict=False, reason="known defect (docs/robustness.md): in a fresh checkout, whose numba functions "
+                   "are not compiled yet, Ctrl-C may not stop the command; it passes once they are cached")
 def test_ctrl_c_prints_one_line_and_no_worker_traceback(gated, tmp_path):
     suite, gate = gated(quick=True)
     out = tmp_path / "out"
