@@ -1,6 +1,9 @@
 """The run loop: reproducible, each learner fed only its own unit's measurement, and it learns to move."""
 
 import dataclasses
+import importlib
+import signal
+import sys
 
 import numpy as np
 import pandas as pd
@@ -8,6 +11,7 @@ import pytest
 
 from morphbench.errors import PluginError
 from morphbench.experiment import RunConfig, run
+from morphbench.lazy import import_keeping_interrupts
 from morphbench.params import DEFAULT_PHYSICS, FAST_PHYSICS, EnvironmentParams, LearnerParams, SensorParams
 from morphbench.shapes import load_shape
 
@@ -184,6 +188,36 @@ def test_auto_gives_a_stack_the_substeps_its_springs_need():
         assert world.physics.substeps == FAST_PHYSICS.substeps == 1
     with make_world(chain, DEFAULT_PHYSICS) as world:
         assert world.physics == DEFAULT_PHYSICS
+
+
+SWALLOWER = """
+import os, signal
+try:  # as trimesh wraps each optional import of its own
+    os.kill(os.getpid(), signal.SIGINT)
+    for _ in range(10 ** 6):  # the handler runs between bytecodes
+        pass
+except BaseException:
+    pass
+imported = True
+"""
+
+
+@pytest.mark.parametrize("keeping", [False, True])
+def test_ctrl_c_during_an_import_that_swallows_it_reaches_the_command(tmp_path, monkeypatch, keeping):
+    """Ctrl-C during trimesh's first import (seconds of SciPy in a fresh process) was lost and the run went on."""
+    name = f"swallower_{keeping}"
+    (tmp_path / f"{name}.py").write_text(SWALLOWER)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        if keeping:
+            with pytest.raises(KeyboardInterrupt):
+                import_keeping_interrupts(name)
+        else:  # what the library does to a plain import
+            importlib.import_module(name)
+        assert sys.modules[name].imported
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 class _InterruptedCleanUp:

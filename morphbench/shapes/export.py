@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from morphbench.files import write_bytes
+from morphbench.lazy import import_keeping_interrupts
 from morphbench.shapes.colours import BELLOWS_RGBA, DUMMY_RGBA, PASSIVE_RGBA, UNIT_RGBA
 from morphbench.shapes.meshes import body_mesh
 from morphbench.shapes.model import Shape
@@ -29,7 +30,7 @@ def _rgba8(rgba) -> np.ndarray:
 
 
 def _coloured(mesh, rgba):
-    import trimesh
+    trimesh = import_keeping_interrupts("trimesh")
 
     mesh.visual = trimesh.visual.ColorVisuals(mesh, vertex_colors=np.tile(_rgba8(rgba), (len(mesh.vertices), 1)))
     return mesh
@@ -67,7 +68,7 @@ def link_segment(shape: Shape, index: int) -> tuple[np.ndarray, np.ndarray]:
 def scene(shape: Shape):
     """A ``trimesh.Scene``: one mesh per body (named by ``body_names``) and one cylinder per link (``bellows-I`` for
     an actuated link, ``link-I`` for a passive one, I its 1-based number), in the assembly frame."""
-    import trimesh
+    trimesh = import_keeping_interrupts("trimesh")
 
     out = trimesh.Scene()
     for name, body in zip(body_names(shape), shape.bodies):

@@ -21,6 +21,7 @@ import numpy as np
 
 from morphbench.failures import describe
 from morphbench.files import is_file
+from morphbench.lazy import import_keeping_interrupts
 from morphbench.shapes.model import Body
 
 PRIMITIVES = ("box", "capsule", "cylinder", "sphere")
@@ -53,7 +54,7 @@ def check_mesh(mesh: str, base: str | Path = ".") -> str:
 @functools.lru_cache(maxsize=64)
 def _unit_mesh(mesh: str):
     """The geometry in a unit cube centred on the origin (not yet scaled to a body), cached."""
-    import trimesh
+    trimesh = import_keeping_interrupts("trimesh")
 
     if mesh in ("", "box"):
         return trimesh.creation.box(extents=(1.0, 1.0, 1.0))
