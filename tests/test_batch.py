@@ -47,6 +47,11 @@ CASES = {
                       {"step": 9, "kind": "damage", "unit": 6, "mode": "dead"})),
     "optical sensor": RunConfig(shape=shape("chain-2"), steps=8),
     "centralized": RunConfig(shape=shape("chain-3"), learner="cmaes", steps=12, sensor=IDEAL),
+    # the other built-ins, stepped as one over the batch's runs like thermal and flaky
+    "averaged": RunConfig(shape=shape("chain-3"), learner="averaged", steps=15, sensor=IDEAL),
+    "adaptive": RunConfig(shape=shape("chain-3"), learner="adaptive", steps=40, sensor=IDEAL,
+                          learner_params=LearnerParams(adapt_window=5)),
+    "random": RunConfig(shape=shape("chain-3"), learner="random", steps=10, sensor=IDEAL),
 }
 
 
@@ -70,22 +75,23 @@ def test_a_batch_gives_each_seed_its_own_records(name):
 
 
 def test_a_run_that_fails_stops_alone(monkeypatch):
-    """A run whose step raises (here seed 1's update at step 5) gets that exception; the others finish as alone."""
+    """A run whose step fails (here seed 1's measurements turn NaN at step 5, which its learners refuse) gets that
+    exception; the others finish as alone."""
     from morphbench.experiment.run import RunLoop
 
     base = CASES["chain-7 cut, dead unit"]
     configs = [dataclasses.replace(base, seed=seed) for seed in (0, 1, 2)]
     alone = [run(configs[0]), run(configs[2])]
-    update = RunLoop.update
+    checked = RunLoop.checked
 
-    def failing(self, u_measured, step):
-        if self.config.seed == 1 and step == 5:
-            raise PluginError("test:Learner", "update", "a usable phase")
-        return update(self, u_measured, step)
+    def failing(self, step, *args):
+        u_measured, u_true = checked(self, step, *args)
+        return (u_measured * np.nan if self.config.seed == 1 and step == 5 else u_measured), u_true
 
-    monkeypatch.setattr(RunLoop, "update", failing)
+    monkeypatch.setattr(RunLoop, "checked", failing)
     batched = run_batch(configs)
-    assert isinstance(batched[1], PluginError)
+    assert isinstance(batched[1], PluginError) and "at learning step 5" in str(batched[1])
+    assert "of unit 1 " in str(batched[1])  # numbered within its own run
     for got, expected in zip([batched[0], batched[2]], alone):
         pd.testing.assert_frame_equal(got.units(), expected.units(), check_exact=True)
 

@@ -803,3 +803,35 @@ def test_a_suite_names_its_physics_for_what_names_none(tmp_path):
     with pytest.raises(ConfigError) as info:
         load_suite(tmp_path / "bad.toml")
     assert info.value.key == "physics" and "bad.toml" in str(info.value.source)
+
+
+def test_a_scan_takes_the_same_physics_table_as_an_experiment(tmp_path):
+    """``physics = {preset = ..., field = ...}`` on a scan gives it the parameters a run's table gives (the same
+    reader and checks), its own id and a label of the preset and the fields; a preset's name alone keeps the id it
+    had; a bad field names the scan's key."""
+    from morphbench.experiment.config import physics_from_table
+
+    chain = SHAPES / "chain-2.toml"
+
+    def scan(physics: str):
+        path = write_suite(tmp_path, f"""
+            [[scan]]
+            shape = "{chain}"
+            resolution = 4
+            physics = {physics}
+        """)
+        return load_suite(path).scans[0]
+
+    table = scan('{preset = "quasistatic", timestep = 0.01}')
+    assert table.physics == physics_from_table({"preset": "quasistatic", "timestep": 0.01}, "x", "physics")
+    assert table.physics.timestep == 0.01 and table.columns["physics"].startswith("quasistatic, ")
+    assert "0.01" in table.columns["physics"]
+    named, same = scan('"quasistatic"'), scan('{preset = "quasistatic"}')
+    assert named.id == same.id and named.columns["physics"] == same.columns["physics"] == "quasistatic"
+    assert table.id != named.id
+    with pytest.raises(ConfigError) as info:
+        scan('{preset = "quasistatic", timestep = -1}')
+    assert info.value.key == "scan[0].physics.timestep"
+    with pytest.raises(ConfigError) as info:
+        scan('"slow"')
+    assert info.value.key == "scan[0].physics"

@@ -506,3 +506,30 @@ def test_the_arrays_of_a_built_in_learner_step_as_its_objects(name, initial_memo
         for got, expected in zip(arrays.update(step, u, alive), objects.update(step, u, alive)):
             assert np.array_equal(got, expected)
         assert np.array_equal(arrays.memory(), objects.memory(), equal_nan=True)
+
+
+@pytest.mark.parametrize("rule", ["thermal", "flaky", "adaptive"])
+def test_a_run_s_view_of_a_joint_controller_is_that_run_s_own_controller(rule):
+    """Three runs' units in one UnitArrays: run 1's view proposes, accepts and remembers what run 1's own
+    controller does, step by step, with units dying and stepping alone, while the other runs' units wait."""
+    from morphbench.learning import load_learner_class, make_controller
+    from morphbench.learning.arrays import RunView
+    from morphbench.learning.plugins import make_joint_controller
+
+    params, n, seeds = LearnerParams(adapt_window=3), 4, [11, 12, 13]
+    cls = load_learner_class(rule)
+    own = make_controller(cls, params, seeds[1], n)
+    view = RunView(make_joint_controller(cls, params, seeds, n), 1, n)
+    np.testing.assert_array_equal(view.initial(), own.initial())
+    rng = np.random.default_rng(0)
+    for step in range(30):
+        alive = np.array([True, True, step < 20, True])
+        units = None if step % 3 else rng.random(n) < 0.7
+        np.testing.assert_array_equal(view.propose(step, alive, units), own.propose(step, alive, units))
+        velocity = rng.normal(2.0, 1.0, n)
+        for got, expected in zip(view.update(step, velocity, alive, units), own.update(step, velocity, alive, units)):
+            np.testing.assert_array_equal(got, expected)
+        np.testing.assert_array_equal(view.memory(), own.memory())
+    with pytest.raises(ConfigError, match="of unit 2 at learning step 30"):  # numbered within its run
+        view.propose(30, np.ones(n, bool))
+        view.update(30, np.array([1.0, np.nan, 1.0, 1.0]), np.ones(n, bool))

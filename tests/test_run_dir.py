@@ -29,8 +29,8 @@ RUN_FILES = {"units.parquet", "steps.parquet", "pieces.parquet", "summary.json",
              "trajectory.png"}
 
 
-def _cli(*argv: str) -> subprocess.Popen:
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+def _cli(*argv: str, path: Path | None = None) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT)] + ([str(path)] if path else []))}
     return subprocess.Popen([sys.executable, "-m", "morphbench.cli", *argv], env=env, cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
@@ -116,17 +116,41 @@ def test_a_video_step_range_after_the_run_is_refused_before_simulating(tmp_path:
     assert os.listdir(tmp_path) == []
 
 
-def test_ctrl_c_during_a_run_is_one_line_and_leaves_the_old_run(tmp_path: Path, capsys):
-    out = tmp_path / "run"
+STEPPING = '''
+from pathlib import Path
+
+
+class Stepping:
+    """Thermal's phase, never a change; touches STARTED once a learning step has been simulated."""
+
+    def __init__(self, params, rng):
+        self.phase = 0.25
+
+    def propose(self):
+        return self.phase
+
+    def update(self, velocity):
+        Path({started!r}).touch()
+        return False
+'''
+
+
+def test_ctrl_c_during_a_run_is_one_line_and_leaves_the_old_run(tmp_path: Path, tmp_path_factory, capsys):
+    out, plugins = tmp_path / "run", tmp_path_factory.mktemp("plugins")
+    started = plugins / "started"
+    (plugins / "mb_stepping.py").write_text(STEPPING.format(started=str(started)))
     assert run_cli(capsys, "run", CHAIN2, "--steps", "2", "--quiet", "--out", str(out))[0] == 0
-    process = _cli("run", CHAIN2, "--steps", "100000", "--physics", "fast", "--quiet", "--out", str(out),
-                   "--overwrite")
-    time.sleep(4)  # imports and a few steps
-    process.send_signal(signal.SIGINT)
+    process = _cli("run", CHAIN2, "--steps", "100000", "--physics", "fast", "--learner", "mb_stepping:Stepping",
+                   "--quiet", "--out", str(out), "--overwrite", path=plugins)
     try:
+        deadline = time.monotonic() + PATIENCE_S
+        while not started.exists() and process.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)  # until the run is simulating: a fixed delay may land in the imports on a busy machine
+        process.send_signal(signal.SIGINT)
         stdout, stderr = process.communicate(timeout=PATIENCE_S)
     finally:
         process.kill()  # a command that did not stop is not left running
+    assert started.exists(), stderr
     assert process.returncode == EXIT_INTERRUPTED, stderr
     assert stdout == ""
     assert stderr == f"morphbench: interrupted; nothing of this run was written to {out}\n"

@@ -20,7 +20,7 @@ from morphbench.bench.identity import (config_identity, environment_id, environm
                                        shape_identity, stable_hash)
 from morphbench.bench.model import SCAN_PART_POINTS, Experiment, RunSpec, ScanSpec
 from morphbench.errors import ConfigError
-from morphbench.experiment.config import run_config_from_table
+from morphbench.experiment.config import physics_from_table, run_config_from_table
 from morphbench.experiment.events import Event, parse_event
 from morphbench.experiment.run import RunConfig
 from morphbench.experiment.scan import DEFAULT_CYCLES, DEFAULT_DISCARD, check_scan_size, scan_phases
@@ -223,7 +223,7 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
     cycles = check_rule(P.COUNT, "", table.get("cycles", DEFAULT_CYCLES), src, f"{where}.cycles")
     discard = check_rule(P.NATURAL, "", table.get("discard", DEFAULT_DISCARD), src, f"{where}.discard")
     seed = check_rule(P.SEED, "", table.get("seed", 0), src, f"{where}.seed")
-    preset = check_rule(P.PHYSICS_PRESET, "", table.get("physics", "default"), src, f"{where}.physics")
+    physics, physics_label = _scan_physics(table.get("physics", "default"), src, f"{where}.physics")
     environment_table = table.get("environment", {})
     if not isinstance(environment_table, dict):
         raise ConfigError(src, f"{where}.environment", "a table of EnvironmentParams fields", environment_table)
@@ -246,17 +246,28 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
     phases = scan_phases(shape.n_units, resolution, samples, seed)
     identity = {"shape": shape_identity(shape), "resolution": resolution, "samples": samples if sampled else None,
                 "seed": seed if sampled else None, "cycles": cycles, "discard": discard,
-                "physics": dataclasses.asdict(P.PHYSICS_PRESETS[preset]), "part_points": SCAN_PART_POINTS,
+                "physics": dataclasses.asdict(physics), "part_points": SCAN_PART_POINTS,
                 "environment": environment_identity(environment)}  # the default one keeps earlier scans' ids
     if damage is not None:  # a healthy scan keeps the id it had before scans could be damaged
         identity["damage"] = {"unit": damage.unit, "mode": damage.mode}
     scan_id = stable_hash(identity)
     columns = {"scan": name, "shape": shape.name, "shape_id": shape_id(shape), "n_units": shape.n_units,
                "resolution": resolution, "samples": len(phases), "cycles": cycles, "discard": discard, "seed": seed,
-               "physics": preset, "environment": _settings_label(environment_table),
+               "physics": physics_label, "environment": _settings_label(environment_table),
                "environment_id": environment_id(environment), "damage": damage.describe() if damage else "none"}
-    return ScanSpec(scan_id, name, shape, columns, P.PHYSICS_PRESETS[preset], cycles, discard, phases, environment,
-                    damage)
+    return ScanSpec(scan_id, name, shape, columns, physics, cycles, discard, phases, environment, damage)
+
+
+def _scan_physics(value: Any, src: str, key: str) -> tuple[P.PhysicsParams, str]:
+    """A scan's ``physics``, as a run's: a preset's name, or a table of a preset and PhysicsParams fields; the
+    parameters and the label of the ``physics`` column (the preset, then the fields set, as for runs)."""
+    if isinstance(value, dict):
+        overrides = {k: v for k, v in value.items() if k != "preset"}
+        preset = value.get("preset", "default")
+        physics = physics_from_table(value, src, key)  # checks the preset's name and every field
+        return physics, ", ".join([preset, _settings_label(overrides)]) if overrides else preset
+    preset = check_rule(P.PHYSICS_PRESET, "", value, src, key)
+    return P.PHYSICS_PRESETS[preset], preset
 
 
 def _values(value: Any, source: str, key: str) -> list:

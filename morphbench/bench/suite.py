@@ -35,7 +35,7 @@ A suite file is TOML::
     shape = "../shapes/chain-2.toml"
     resolution = 20                     # points per phase axis (up to 3 units; beyond: `samples` seeded points)
     cycles = 12                         # cycles measured per point (default 12), after `discard` (default 2)
-    physics = "default"                 # a preset
+    physics = "default"                 # a preset, or a table as an experiment's: {preset = "fast", timestep = 0.005}
     environment = {friction_scale = 1.5}   # optional: the EnvironmentParams the scan runs in (no noise: scans
                                            #   measure the true velocity)
     damage = {unit = 2, mode = "no-inflate"}   # optional: the assembly is damaged from the start, as a damage event

@@ -127,21 +127,22 @@ def measure(world: WorldInterface, sensors: list[Sensor], n_cycles: int,
 
     ``on_tick(world)``, if given, is called after every physics tick (for observers such as a video recorder)."""
     n_ticks = world.ticks_in(n_cycles * world.shape.actuator.cycle_time)
-    measurement = Measurement(world, sensors, n_ticks)
+    measurement = Measurement(sensors, n_ticks, world.unit_poses(), world.ticks_in)
     return measurement.end(*world.advance_sampled(n_ticks, measurement.every, on_tick))
 
 
 class Measurement:
-    """Sensor banks measuring over the coming ``n_ticks`` ticks of a world: started at the world's current poses,
+    """Sensor banks measuring over the coming ``n_ticks`` ticks of a world: started at its units' current ``poses``,
     ended with the poses its ``advance_sampled(n_ticks, every)`` gives (so that several worlds, or the copies of one
-    batched world, can be advanced together between the two)."""
+    batched world, can be advanced together between the two; one bank can measure the units of every copy, side by
+    side). ``ticks_in(seconds)`` is the world's."""
 
-    def __init__(self, world: WorldInterface, sensors: list[Sensor], n_ticks: int):
+    def __init__(self, sensors: list[Sensor], n_ticks: int, poses: tuple[np.ndarray, np.ndarray],
+                 ticks_in: Callable[[float], int]):
         self.sensors, self.n_ticks = sensors, n_ticks
-        poses = world.unit_poses()
         for sensor in sensors:
             sensor.reset(*poses)
-        self.periods = [max(1, world.ticks_in(sensor.sample_period)) for sensor in sensors]
+        self.periods = [max(1, ticks_in(sensor.sample_period)) for sensor in sensors]
         self.every = math.gcd(*self.periods)
         """ticks between the poses the sensors need."""
 
@@ -152,6 +153,12 @@ class Measurement:
             due = (ticks % period == 0) | (ticks == self.n_ticks)
             sensor.sample_many(positions[due], orientations[due])
         return [sensor.displacement() for sensor in self.sensors]
+
+
+def ground_poses(positions: np.ndarray, orientations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Units' places on the ground (n, 2), m, and headings (n,), rad from +x towards +y, from their poses."""
+    axes = forward_axes(orientations)
+    return positions[:, :2], np.arctan2(axes[:, 1], axes[:, 0])
 
 
 class RunLoop:
@@ -184,15 +191,21 @@ class RunLoop:
         self.measured_ticks = world.ticks_in(lp.cycles_per_step * cycle)
 
     def finish_step(self, step: int, records: RunRecords, applied: list[Event], tried: np.ndarray,
-                    measurement: Measurement, samples: tuple[np.ndarray, np.ndarray], inside: bool = False
+                    displacements: list[np.ndarray], samples: tuple[np.ndarray, np.ndarray], inside: bool = False
                     ) -> np.ndarray:
         """The rest of ``step`` once its measured cycles are simulated: measurements, validity, update, record
         (``inside``: ``all_inside`` found the world valid, so the detectors need not run)."""
-        u_measured, u_true = self.measured(measurement, *samples)
-        self.check_physics(step, samples, inside)
+        u_measured, u_true = self.checked(step, displacements, samples, inside)
         accepted = self.update(u_measured, step)
         self.record(records, step, tried, u_measured, u_true, accepted, applied)
         return u_measured
+
+    def checked(self, step: int, displacements: list[np.ndarray], samples: tuple[np.ndarray, np.ndarray],
+                inside: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """``measured`` from the sensor banks' ``displacements``, once ``check_physics`` has passed."""
+        u_measured, u_true = self.measured(displacements)
+        self.check_physics(step, samples, inside)
+        return u_measured, u_true
 
     def apply_events(self, step: int) -> list[Event]:
         """The events of ``step``, applied in their order."""
@@ -204,21 +217,23 @@ class RunLoop:
     def propose(self, step: int) -> np.ndarray:
         """Each unit's trial phase from the controller, set in the world by position (a dead unit keeps its phase
         and gets no measurement)."""
-        tried = self.controller.propose(step, self.state.alive())
+        return self.set_trial(self.controller.propose(step, self.state.alive()))
+
+    def set_trial(self, tried: np.ndarray) -> np.ndarray:
+        """The world runs each unit's trial phase ``tried`` (in unit order) from now."""
         self.world.set_phases(tried[self.state.order])
         return tried
 
     def start_measurement(self) -> Measurement:
         """The sensors (and the ground truth) start measuring the ``cycles_per_step`` cycles after the discarded
         ones."""
-        return Measurement(self.world, [self.sensor] if self.truth is None else [self.sensor, self.truth],
-                           self.measured_ticks)
+        return Measurement([self.sensor] if self.truth is None else [self.sensor, self.truth], self.measured_ticks,
+                           self.world.unit_poses(), self.world.ticks_in)
 
-    def measured(self, measurement: Measurement, positions: np.ndarray, orientations: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray]:
+    def measured(self, displacements: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         """Per unit the measured velocity (with the unit's own noise; NaN for a dead unit) and the true one,
-        mm/cycle, from the sampled poses of the measured cycles."""
-        displacements = measurement.end(positions, orientations)
+        mm/cycle, from the sensor banks' ``displacements`` (m) over the measured cycles (the sensor's, then the
+        ground truth's if it has its own)."""
         sensed, true = displacements[0], displacements[-1]
         position, to_mm_per_cycle = self.state.position(), 1000.0 / self.config.learner_params.cycles_per_step
         noise = self.state.noise
@@ -247,17 +262,18 @@ class RunLoop:
         return accepted
 
     def record(self, records: RunRecords, step: int, tried: np.ndarray, u_measured: np.ndarray, u_true: np.ndarray,
-               accepted: np.ndarray, applied: list[Event]) -> None:
-        """The step's row per unit, with its position, piece and pose, and the events applied."""
+               accepted: np.ndarray, applied: list[Event], ground: tuple[np.ndarray, np.ndarray] | None = None
+               ) -> None:
+        """The step's row per unit, with its position, piece and pose, and the events applied; ``ground``: the
+        world's units' (n, 2) places on the ground and headings, if already known (``ground_poses``)."""
         world, position = self.world, self.state.position()
         kept = self.kept
         piece_of_body = {body: k for k, piece in enumerate(world.pieces()) for body in piece}
         piece = np.array([piece_of_body[self.config.shape.units[p]] for p in position]) + 1
-        positions, orientations = world.unit_poses()  # the world lists units by position
-        axes = forward_axes(orientations[position])
+        xy, heading = ground_poses(*world.unit_poses()) if ground is None else ground  # units by position
         records.add_step(step, world.time, tried, kept, u_measured, u_true, accepted, position + 1, piece,
-                         positions[position, :2], np.arctan2(axes[:, 1], axes[:, 0]),
-                         "; ".join(event.describe() for event in applied), self.controller.memory())
+                         xy[position], heading[position], "; ".join(event.describe() for event in applied),
+                         self.controller.memory())
 
 
 MAX_TILT_DEG = 45.0

@@ -87,11 +87,7 @@ class UnitArrays(Controller):
             self.phase[live], self._memory[live] = self.trial[live], velocity[live]
             accepted[live] = True
             return accepted, self.phase.copy()
-        bad = live[~np.isfinite(velocity[live])]
-        if len(bad):  # a NaN would compare as 'not worse' and poison the memory for good
-            raise PluginError(self.name, "update(velocity)", f"of unit {bad[0] + 1} at learning step {step} to "
-                              f"return (it raised ValueError: measured velocity must be finite, got "
-                              f"{float(velocity[bad[0]])!r})")
+        self.check_finite(step, velocity, live)
         first, rest = live[~self.measured[live]], live[self.measured[live]]
         self._memory[first], self.measured[first] = velocity[first], True
         accepted[first] = True
@@ -110,6 +106,15 @@ class UnitArrays(Controller):
             self._adapt(rest, accepted)
         return accepted, self.phase.copy()
 
+    def check_finite(self, step: int, velocity: np.ndarray, live: np.ndarray, first_unit: int = 0) -> None:
+        """A PluginError naming the first of the ``live`` units whose measured velocity is not finite (a NaN would
+        compare as 'not worse' and poison the memory for good); units numbered from ``first_unit``."""
+        bad = live[~np.isfinite(velocity[live])]
+        if len(bad):
+            raise PluginError(self.name, "update(velocity)", f"of unit {bad[0] - first_unit + 1} at learning step "
+                              f"{step} to return (it raised ValueError: measured velocity must be finite, got "
+                              f"{float(velocity[bad[0]])!r})")
+
     def _adapt(self, tried: np.ndarray, accepted: np.ndarray) -> None:
         """Count the trials of units ``tried``; a unit whose window is full changes its step size."""
         self.window_trials[tried] += 1
@@ -120,3 +125,35 @@ class UnitArrays(Controller):
 
     def memory(self) -> np.ndarray:
         return self._memory.copy()
+
+
+class RunView(Controller):
+    """Run ``run``'s units of a ``UnitArrays`` that holds the units of several runs side by side, ``n_units``
+    each (``plugins.make_joint_controller``): a controller of that run alone, which steps only its own units (the
+    batch's driver steps every run's at once through the joint one)."""
+
+    centralized = False
+
+    def __init__(self, joint: UnitArrays, run: int, n_units: int):
+        self.joint, self.units = joint, slice(run * n_units, (run + 1) * n_units)
+
+    def _mask(self, values: np.ndarray | None, fill) -> np.ndarray:
+        full = np.full(len(self.joint.phase), fill)
+        full[self.units] = True if values is None else values
+        return full
+
+    def initial(self) -> np.ndarray:
+        return self.joint.phase[self.units].copy()
+
+    def propose(self, step: int, alive: np.ndarray, units: np.ndarray | None = None) -> np.ndarray:
+        return self.joint.propose(step, self._mask(alive, False), self._mask(units, False))[self.units]
+
+    def update(self, step: int, u_measured: np.ndarray, alive: np.ndarray, units: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
+        velocity, live = self._mask(u_measured, 0.0), self._mask(alive, False) & self._mask(units, False)
+        self.joint.check_finite(step, velocity, np.flatnonzero(live), first_unit=self.units.start)
+        accepted, kept = self.joint.update(step, velocity, live)
+        return accepted[self.units], kept[self.units]
+
+    def memory(self) -> np.ndarray:
+        return self.joint._memory[self.units].copy()

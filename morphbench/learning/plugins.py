@@ -180,6 +180,16 @@ def make_controller(cls: type, params: LearnerParams, seed: int, n_units: int) -
     return Decentralized(make_learners(cls, params, seed, n_units))
 
 
+def make_joint_controller(cls: type, params: LearnerParams, seeds: list[int], n_units: int) -> UnitArrays | None:
+    """For a batch of runs of a built-in per-unit learner, one controller over every run's units, run r's unit u
+    at ``r * n_units + u`` with ``unit_rng(seeds[r], u)``: each unit keeps its own state and stream, so every run
+    draws what its own ``make_controller`` would. None for any other learner (each run keeps its own)."""
+    if cls not in ARRAYS.values():
+        return None
+    name = learner_spec(cls)
+    return UnitArrays(name, params, [unit_rng(seed, unit) for seed in seeds for unit in range(n_units)], name)
+
+
 class Decentralized(Controller):
     """One learner per unit as the run loop's controller: each living unit's learner proposes its own phase and gets
     its own measurement only, through the guarded calls (a PluginError names the plug-in, the unit and the step)."""

@@ -56,6 +56,15 @@ class Copies(Batch):
         return [(np.ascontiguousarray(positions[:, c * n:(c + 1) * n]),
                  np.ascontiguousarray(orientations[:, c * n:(c + 1) * n])) for c in range(len(self.worlds))]
 
+    def advance_sampled_joined(self, n_ticks, every):
+        self._poses = None
+        return self.world.advance_sampled(n_ticks, every)  # the copies' units are the world's, in copy order
+
+    def unit_poses(self):
+        units = list(self.world.shape.units)
+        positions, orientations = self.poses()
+        return positions[units], orientations[units]
+
     def close(self):
         self.world.close()
 

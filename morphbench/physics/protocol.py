@@ -111,6 +111,20 @@ class Batch:
         """Run ``n_ticks`` ticks of every world; each world's sampled unit poses, as its ``advance_sampled``."""
         raise NotImplementedError
 
+    def advance_sampled_joined(self, n_ticks: int, every: int) -> tuple[np.ndarray, np.ndarray]:
+        """``advance_sampled`` with the worlds' units side by side: (K, worlds x n_units, 3) and (..., 4)."""
+        samples = self.advance_sampled(n_ticks, every)
+        return np.concatenate([p for p, _ in samples], axis=1), np.concatenate([q for _, q in samples], axis=1)
+
+    def unit_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every world's ``unit_poses``, side by side."""
+        poses = [world.unit_poses() for world in self.worlds]
+        return np.concatenate([p for p, _ in poses]), np.concatenate([q for _, q in poses])
+
+    def ticks_in(self, duration: float) -> int:
+        """Ticks in ``duration`` seconds: the worlds share their clock."""
+        return self.worlds[0].ticks_in(duration)
+
     def close(self) -> None:
         """Release every world."""
         raise NotImplementedError
