@@ -5,7 +5,8 @@ under a temporary name in its own directory and renamed onto its name, so a read
 never half of one, and a killed process leaves only a ``.NAME.tmp-PID`` file behind (which ``bench.store`` clears
 once ``is_stale`` says its process is gone). A directory of files that belong together (a run) is written whole by
 ``replace_directory``. A directory that one process at a time may write (a suite's results) is held by
-``directory_lock``. TOML files are read by ``read_toml``, with one message for each way a file can be bad.
+``directory_lock``. TOML files are read by ``read_toml``, with one message for each way a file can be bad; a
+document's generated section is rewritten by ``replace_section``.
 """
 
 from __future__ import annotations
@@ -296,3 +297,13 @@ def read_toml_with_text(path: Path, what: str) -> tuple[dict[str, Any], str]:
     except RecursionError:  # tomllib descends once per level of nested arrays and inline tables
         raise ConfigError(path, "(syntax)",
                           "TOML nested less deeply (arrays or inline tables thousands deep)") from None
+
+
+def replace_section(path: str | os.PathLike, begin: str, end: str, section: str) -> Path:
+    """Rewrite, atomically, the text between the markers ``begin`` and ``end`` of ``path`` (a document's generated
+    section; the markers and the rest are kept); a ConfigError naming the file if a marker is missing."""
+    text = Path(path).read_text(encoding="utf-8") if Path(path).is_file() else ""
+    if begin not in text or end not in text:
+        raise ConfigError(path, "(file)", f"the generated-section markers {begin} and {end}")
+    head, rest = text.split(begin, 1)
+    return write_text(path, head + begin + section + end + rest.split(end, 1)[1])

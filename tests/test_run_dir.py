@@ -16,7 +16,8 @@ import pandas as pd
 import pytest
 
 from morphbench.cli import EXIT_BAD_INPUT, EXIT_INTERRUPTED
-from morphbench.files import replace_directory
+from morphbench.errors import ConfigError
+from morphbench.files import replace_directory, replace_section
 
 from conftest import ROOT, SHAPES_DIR, run_cli
 
@@ -58,6 +59,18 @@ def test_replace_directory_swaps_whole_or_not_at_all(tmp_path: Path):
     with pytest.raises(KeyboardInterrupt):
         replace_directory(target, half)
     assert os.listdir(target) == ["b"] and os.listdir(tmp_path) == ["run"]  # no temporary directory left
+
+
+def test_replace_section_keeps_the_markers_and_the_rest(tmp_path: Path):
+    doc = tmp_path / "page.md"
+    doc.write_text("head\n<!-- a -->\nold\n<!-- b -->\ntail <!-- b -->\n")
+    replace_section(doc, "<!-- a -->", "<!-- b -->", "\nnew\n")
+    assert doc.read_text() == "head\n<!-- a -->\nnew\n<!-- b -->\ntail <!-- b -->\n"
+    with pytest.raises(ConfigError, match="page.md.*generated-section markers <!-- a --> and <!-- c -->"):
+        replace_section(doc, "<!-- a -->", "<!-- c -->", "x")
+    assert doc.read_text() == "head\n<!-- a -->\nnew\n<!-- b -->\ntail <!-- b -->\n"  # nothing written
+    with pytest.raises(ConfigError, match="missing.md"):
+        replace_section(tmp_path / "missing.md", "<!-- a -->", "<!-- b -->", "x")
 
 
 def test_overwrite_replaces_the_whole_run(tmp_path: Path, capsys):
