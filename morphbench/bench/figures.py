@@ -36,6 +36,8 @@ N_BINS = 40
 TRAIL_COLOURS = ("k", "#1b9e3a", "#7b3294", "#e66101")
 """one per run drawn on a landscape: visible on its red-white-blue map."""
 DPI = 100
+LOG_N_FROM = 20
+"""the largest number of units over the smallest beyond which the scaling figure draws N on a log scale."""
 
 
 def _grid(n: int, width: float = 4.2, height: float = 3.0):
@@ -131,8 +133,10 @@ def scaling(name: str, groups: list[tuple[str | None, pd.DataFrame]], path: Path
     """Per group ``(label, metrics rows)`` (e.g. one step size), against the number of units: U_eq with the std of the
     runs' final Ubar over seeds as error bars (where the fit found no plateau, U_eq would be an extrapolation: the
     final Ubar is drawn instead, hollow); steps to 0.8 U_eq (mean +- std over the runs that reach it); the fraction
-    of runs that reach it."""
+    of runs that reach it. N is drawn on a log scale when it spans more than LOG_N_FROM (sheets of 4 to 256 units
+    beside chains)."""
     fig, (ax_u, ax_k, ax_f) = plt.subplots(1, 3, figsize=(14, 4))
+    sizes = pd.concat([rows.n_units for _, rows in groups]).to_numpy(dtype=float) if groups else np.ones(1)
     for i, (label, rows) in enumerate(groups):
         rows = rows.sort_values("n_units")
         colour = f"C{i % 10}"
@@ -156,6 +160,8 @@ def scaling(name: str, groups: list[tuple[str | None, pd.DataFrame]], path: Path
     ax_f.set_ylim(-0.02, 1.02)
     for ax in (ax_u, ax_k, ax_f):
         ax.set_xlabel("active units N")
+        if sizes.max() > LOG_N_FROM * sizes.min():
+            ax.set_xscale("log")
     if any(label for label, _ in groups):
         ax_u.legend(fontsize="x-small")
     fig.suptitle(f"{name}: scaling with the number of units")
