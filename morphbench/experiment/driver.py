@@ -22,8 +22,7 @@ import numpy as np
 
 from morphbench.experiment.clocks import Schedule, clocked
 from morphbench.experiment.records import RunRecords
-from morphbench.experiment.run import RunConfig, RunLoop, ground_poses
-from morphbench.experiment.run import Measurement
+from morphbench.experiment.run import Measurement, RunConfig, RunLoop, ground_poses
 from morphbench.learning import Controller, load_learner_class, make_controller
 from morphbench.learning.arrays import RunView
 from morphbench.learning.plugins import make_joint_controller
@@ -133,27 +132,20 @@ class Driver:
         displacements, samples = self._measure(loops, measured)
         going = sorted(displacements)
         inside = RunLoop.all_inside([loops[i] for i in going], step, [samples[i] for i in going]) if going else False
-        if self.joint is None:
-            return self._each(lambda i, loop: loop.finish_step(step, records[i], applied[i], tried[i],
-                                                               displacements[i], samples[i], inside), loops)
         velocities = self._each(lambda i, loop: loop.checked(step, displacements[i], samples[i], inside), loops)
         accepted = self._update(step, loops, {i: u_measured for i, (u_measured, _) in velocities.items()})
         xy, heading = ground_poses(*self.batch.unit_poses())
         self._each(lambda i, loop: loop.record(records[i], step, tried[i], *velocities[i], accepted[i], applied[i],
-                                               (xy[self._units(i)], heading[self._units(i)])),
+                                               (xy[self.slices[i]], heading[self.slices[i]])),
                    [loop if i in accepted else None for i, loop in enumerate(loops)])
         return {i: velocities[i][0] for i in accepted if self.outcome[i] is None}
-
-    def _units(self, index: int) -> slice:
-        """Run ``index``'s units among every run's, side by side (the joint learners' and sensor's order)."""
-        return self.slices[index]
 
     def _alive(self, loops: list[RunLoop | None]) -> np.ndarray:
         """Every run's units side by side: alive in a run still going."""
         alive = np.zeros(self.configs[0].shape.n_units * len(loops), dtype=bool)
         for index, loop in enumerate(loops):
             if loop is not None and self.outcome[index] is None:
-                alive[self._units(index)] = loop.state.alive()
+                alive[self.slices[index]] = loop.state.alive()
         return alive
 
     def _propose(self, step: int, loops: list[RunLoop | None]) -> dict[int, np.ndarray]:
@@ -161,7 +153,7 @@ class Driver:
         if self.joint is None:
             return self._each(lambda i, loop: loop.propose(step), loops)
         tried = self.joint.propose(step, self._alive(loops))
-        return self._each(lambda i, loop: loop.set_trial(tried[self._units(i)]), loops)
+        return self._each(lambda i, loop: loop.set_trial(tried[self.slices[i]]), loops)
 
     def _measure(self, loops: list[RunLoop | None], n_ticks: int) -> tuple[dict[int, list], list]:
         """Advance the measured ticks; per run going its sensor banks' displacements (m) and its units' sampled
@@ -175,26 +167,27 @@ class Driver:
         measurement = Measurement([self.joint_sensor], n_ticks, self.batch.unit_poses(), self.batch.ticks_in)
         positions, orientations = self.batch.advance_sampled_joined(n_ticks, measurement.every)
         moved, = measurement.end(positions, orientations)
-        samples = [(positions[:, self._units(i)], orientations[:, self._units(i)]) for i in range(len(loops))]
-        return {i: [moved[self._units(i)]] for i, loop in enumerate(loops) if loop is not None and
+        samples = [(positions[:, self.slices[i]], orientations[:, self.slices[i]]) for i in range(len(loops))]
+        return {i: [moved[self.slices[i]]] for i, loop in enumerate(loops) if loop is not None and
                 self.outcome[i] is None}, samples
 
     def _update(self, step: int, loops: list[RunLoop | None], measured: dict[int, np.ndarray]) -> dict[int, np.ndarray]:
-        """The joint learners take the measurements of the runs in ``measured``; per run whether each unit
-        accepted its trial (a run whose measurements a learner refuses stops there, as alone)."""
-        n = self.configs[0].shape.n_units
-        velocity = np.zeros(n * len(loops))
+        """The controllers take the measurements of the runs in ``measured``: each run's own, or the joint learners
+        all at once; per run whether each unit accepted its trial (a run whose measurements a learner refuses stops
+        there, as alone)."""
+        if self.joint is None:
+            return self._each(lambda i, loop: loop.update(measured[i], step), [
+                loop if i in measured else None for i, loop in enumerate(loops)])
+        velocity = np.zeros(self.configs[0].shape.n_units * len(loops))
         for index, u_measured in measured.items():
-            velocity[self._units(index)] = u_measured
-        alive = self._alive([loop if i in measured else None for i, loop in enumerate(loops)])
-        self._each(lambda i, _: self.joint.check_finite(step, velocity, np.flatnonzero(alive[self._units(i)]) + i * n,
-                                                        first_unit=i * n), [measured.get(i) for i in range(len(loops))])
-        alive = self._alive([loop if i in measured else None for i, loop in enumerate(loops)])
-        accepted, kept = self.joint.update(step, velocity, alive)
+            velocity[self.slices[index]] = u_measured
+        self._each(lambda i, loop: loop.controller.check_finite(step, measured[i], loop.state.alive()),
+                   [loop if i in measured else None for i, loop in enumerate(loops)])
+        accepted, kept = self.joint.update(step, velocity, self._alive(loops))
         for index in measured:
             if self.outcome[index] is None:
-                loops[index].kept = kept[self._units(index)]
-        return {i: accepted[self._units(i)] for i in measured if self.outcome[i] is None}
+                loops[index].kept = kept[self.slices[index]]
+        return {i: accepted[self.slices[i]] for i in measured if self.outcome[i] is None}
 
     def finish(self) -> list[RunRecords | BaseException]:
         """Each run's records (its wall time the batch's shared out evenly), or the exception that stopped it."""

@@ -164,7 +164,7 @@ def ground_poses(positions: np.ndarray, orientations: np.ndarray) -> tuple[np.nd
 class RunLoop:
     """One run's world, sensors, controller and what events change; each method is a phase of a learning step:
     ``apply_events``, ``propose``, (the discarded cycles), ``start_measurement``, (the measured cycles),
-    ``finish_step`` (measured, check_physics, update, record). ``experiment.driver.Driver`` takes every run of a
+    ``checked`` (measured, check_physics), ``update``, ``record``. ``experiment.driver.Driver`` takes every run of a
     batch through them in that order: ``run``, the suites and the environments all go through it."""
 
     def __init__(self, config: RunConfig, controller: Controller, world: WorldInterface,
@@ -189,16 +189,6 @@ class RunLoop:
         self.discard_ticks = world.ticks_in(lp.discard_cycles * cycle)
         """ticks run after each phase change before measuring (the transient dropped)."""
         self.measured_ticks = world.ticks_in(lp.cycles_per_step * cycle)
-
-    def finish_step(self, step: int, records: RunRecords, applied: list[Event], tried: np.ndarray,
-                    displacements: list[np.ndarray], samples: tuple[np.ndarray, np.ndarray], inside: bool = False
-                    ) -> np.ndarray:
-        """The rest of ``step`` once its measured cycles are simulated: measurements, validity, update, record
-        (``inside``: ``all_inside`` found the world valid, so the detectors need not run)."""
-        u_measured, u_true = self.checked(step, displacements, samples, inside)
-        accepted = self.update(u_measured, step)
-        self.record(records, step, tried, u_measured, u_true, accepted, applied)
-        return u_measured
 
     def checked(self, step: int, displacements: list[np.ndarray], samples: tuple[np.ndarray, np.ndarray],
                 inside: bool = False) -> tuple[np.ndarray, np.ndarray]:

@@ -150,10 +150,16 @@ class RunView(Controller):
 
     def update(self, step: int, u_measured: np.ndarray, alive: np.ndarray, units: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray]:
-        velocity, live = self._mask(u_measured, 0.0), self._mask(alive, False) & self._mask(units, False)
-        self.joint.check_finite(step, velocity, np.flatnonzero(live), first_unit=self.units.start)
-        accepted, kept = self.joint.update(step, velocity, live)
+        live = alive if units is None else alive & units
+        self.check_finite(step, u_measured, live)
+        accepted, kept = self.joint.update(step, self._mask(u_measured, 0.0), self._mask(live, False))
         return accepted[self.units], kept[self.units]
+
+    def check_finite(self, step: int, u_measured: np.ndarray, live: np.ndarray) -> None:
+        """``UnitArrays.check_finite`` of this run's ``live`` units, numbered within the run: the joint learners
+        would refuse the whole batch's measurements, a driver refuses this run's alone."""
+        self.joint.check_finite(step, self._mask(u_measured, 0.0), np.flatnonzero(self._mask(live, False)),
+                                first_unit=self.units.start)
 
     def memory(self) -> np.ndarray:
         return self.joint._memory[self.units].copy()
