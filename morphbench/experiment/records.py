@@ -49,17 +49,60 @@ UNIT_COLUMNS = ("step", "unit", "position", "piece", "phase_tried", "phase_kept"
                 "accepted", "x_m", "y_m", "heading_rad")
 STEP_COLUMNS = ("step", "time_s", "ubar", "ubar_true", "acceptance", "event", "x_m", "y_m", "heading_rad", "u_heading")
 PIECE_COLUMNS = ("step", "piece", "n_units", "ubar", "ubar_true")
+STORED_COLUMNS = {"position": np.int64, "piece": np.int64, "phase_tried": float, "phase_kept": float,
+                  "u_measured": float, "u_true": float, "u_memory": float, "accepted": bool, "x_m": float,
+                  "y_m": float, "heading_rad": float}
+"""The unit columns ``StepRows`` keeps, with their types (``step`` and ``unit`` follow from the rows)."""
+STEP_ROWS = {"step": np.int64, "time_s": float, "event": object}
+"""The columns ``StepRows`` keeps once per row."""
 FINAL_FRACTION = 0.1  # final Ubar is the mean over the last 10% of learning steps (at least one)
 NO_GROUND_HEADING = 1e-9  # a shape heading whose ground-plane part is shorter than this has no heading on the ground
 
 
-class RunRecords:
-    """Accumulates a run's measurements step by step, then offers them as tables and a summary."""
+class StepRows:
+    """The rows of the learning steps of ``n_runs`` runs with as many units each: per column of STEP_ROWS one array
+    (rows, runs), per column of STORED_COLUMNS one (rows, runs, units). ``add`` appends a row to each of the runs it
+    is given, so that a batch's driver stores a step of all its runs at once; each run's ``RunRecords`` reads its
+    own rows, as many as were added for it (a run that stopped early keeps exactly the rows it had)."""
 
-    def __init__(self, config: Any):
+    def __init__(self, n_runs: int, capacity: int = 16):
+        self.counts = np.zeros(n_runs, dtype=np.int64)
+        """rows per run."""
+        self.columns = {name: np.zeros((capacity, n_runs), dtype=kind) for name, kind in STEP_ROWS.items()}
+        """the unit columns join at the first ``add``, which gives the number of units."""
+
+    def add(self, runs: np.ndarray, step: int, time_s: float, event, units: dict[str, np.ndarray]) -> None:
+        """A row for each of ``runs`` (run indices): ``event`` one text or one per run, ``units`` every column of
+        STORED_COLUMNS, (len(runs), n_units) in unit order."""
+        if not len(runs):
+            return
+        rows = self.counts[runs]
+        if rows.max() >= len(self.columns["step"]):
+            self._grow(2 * int(rows.max()) + 1)
+        if "phase_tried" not in self.columns:
+            shape = self.columns["step"].shape + np.shape(units["phase_tried"])[-1:]
+            self.columns.update({name: np.zeros(shape, dtype=kind) for name, kind in STORED_COLUMNS.items()})
+        for name, values in (("step", step), ("time_s", time_s), ("event", event), *units.items()):
+            self.columns[name][rows, runs] = values
+        self.counts[runs] += 1
+
+    def _grow(self, capacity: int) -> None:
+        for name, values in self.columns.items():
+            more = np.zeros((capacity - len(values),) + values.shape[1:], dtype=values.dtype)
+            self.columns[name] = np.concatenate([values, more])
+
+    def of(self, run: int, name: str) -> np.ndarray:
+        """Run ``run``'s rows of column ``name``: (rows, n_units) for a unit column, (rows,) for a step column."""
+        return self.columns[name][:self.counts[run], run]
+
+
+class RunRecords:
+    """A run's measurements step by step, offered as tables and a summary: its rows of ``rows`` (a ``StepRows``
+    shared with the other runs of its batch, at index ``run``; its own by default)."""
+
+    def __init__(self, config: Any, rows: StepRows | None = None, run: int = 0):
         self.config = config
-        self._units: dict[str, list[np.ndarray]] = {name: [] for name in UNIT_COLUMNS}
-        self._steps: dict[str, list] = {"step": [], "time_s": [], "event": []}
+        self.rows, self.run = StepRows(1) if rows is None else rows, run
         self.wall_time: float | None = None
         self.backend: str | None = None
         """the physics backend the run's world used (``physics.resolve_backend``; 'auto' resolved), set by its
@@ -69,33 +112,28 @@ class RunRecords:
                  event="", u_memory=None) -> None:
         """One learning step; the arrays are per unit, in unit order (``xy``: (n, 2) ground positions, m;
         ``heading``: rad; ``u_memory``: mm/cycle, None for none kept)."""
-        n = len(tried)
-        memory = np.full(n, np.nan) if u_memory is None else np.asarray(u_memory, dtype=float)
-        for name, value in (("step", np.full(n, step)), ("unit", np.arange(1, n + 1)), ("position", position),
-                            ("piece", piece), ("phase_tried", tried), ("phase_kept", kept),
-                            ("u_measured", u_measured), ("u_true", u_true), ("u_memory", memory),
-                            ("accepted", accepted),
-                            ("x_m", xy[:, 0]), ("y_m", xy[:, 1]), ("heading_rad", heading)):
-            self._units[name].append(np.asarray(value))
-        self._steps["step"].append(step)
-        self._steps["time_s"].append(time_s)
-        self._steps["event"].append(event)
+        memory = np.full(len(tried), np.nan) if u_memory is None else u_memory
+        columns = {"position": position, "piece": piece, "phase_tried": tried, "phase_kept": kept,
+                   "u_measured": u_measured, "u_true": u_true, "u_memory": memory, "accepted": accepted,
+                   "x_m": xy[:, 0], "y_m": xy[:, 1], "heading_rad": heading}
+        self.rows.add(np.array([self.run]), step, time_s, event,
+                      {name: np.asarray(values)[None] for name, values in columns.items()})
 
     def finish(self, wall_time: float) -> None:
         self.wall_time = wall_time
 
     @property
     def n_steps(self) -> int:
-        return len(self._steps["step"])
+        return int(self.rows.counts[self.run])
 
     @property
     def last_ubar(self) -> float:
-        return float(np.nanmean(self._units["u_measured"][-1]))
+        return float(np.nanmean(self.rows.of(self.run, "u_measured")[-1]))
 
     def last_kept_by_place(self) -> np.ndarray:
         """The units' kept phases at the end of the last step, by the place each sits at (the world's unit order, as
         ``world.phases``): what a video colours each unit's body by."""
-        kept, place = self._units["phase_kept"][-1], np.asarray(self._units["position"][-1]) - 1
+        kept, place = self.rows.of(self.run, "phase_kept")[-1], self.rows.of(self.run, "position")[-1] - 1
         by_place = np.empty(len(kept))
         by_place[place] = kept
         return by_place
@@ -104,17 +142,19 @@ class RunRecords:
         """Per step and unit (see the module docstring)."""
         if not self.n_steps:
             return pd.DataFrame(columns=UNIT_COLUMNS)
-        table = pd.DataFrame({name: np.concatenate(values) for name, values in self._units.items()},
+        steps = self.rows.of(self.run, "step")
+        n = self.rows.columns["phase_tried"].shape[-1]
+        table = pd.DataFrame({"step": np.repeat(steps, n), "unit": np.tile(np.arange(1, n + 1), len(steps)),
+                              **{name: self.rows.of(self.run, name).ravel() for name in STORED_COLUMNS}},
                              columns=UNIT_COLUMNS)
         return table.astype({"step": "int64", "unit": "int64", "position": "int64", "piece": "int64", "accepted": bool})
 
     def steps(self) -> pd.DataFrame:
         """Per step (see the module docstring). Dead units (NaN measurement) are left out of the means."""
         units = self.units()
-        table = pd.DataFrame({"step": np.asarray(self._steps["step"], dtype=np.int64),
-                              "time_s": np.asarray(self._steps["time_s"], dtype=float)})
+        table = pd.DataFrame({"step": self.rows.of(self.run, "step"), "time_s": self.rows.of(self.run, "time_s")})
         table = table.merge(self._scored(units, ["step"]), on="step", how="left")
-        table["event"] = self._steps["event"]
+        table["event"] = list(self.rows.of(self.run, "event"))
         table = table.merge(self._track(units, table.time_s.to_numpy()), on="step", how="left")
         return table[list(STEP_COLUMNS)]
 
