@@ -76,24 +76,64 @@ def test_a_batch_gives_each_seed_its_own_records(name):
 
 def test_a_run_that_fails_stops_alone(monkeypatch):
     """A run whose step fails (here seed 1's measurements turn NaN at step 5, which its learners refuse) gets that
-    exception; the others finish as alone."""
-    from morphbench.experiment.run import RunLoop
+    exception and keeps exactly its rows of the steps before; the others finish as alone."""
+    from morphbench.experiment.driver import Driver
 
     base = CASES["chain-7 cut, dead unit"]
     configs = [dataclasses.replace(base, seed=seed) for seed in (0, 1, 2)]
-    alone = [run(configs[0]), run(configs[2])]
-    checked = RunLoop.checked
+    alone = [run(config) for config in configs]
+    measured = Driver._measured
 
-    def failing(self, step, *args):
-        u_measured, u_true = checked(self, step, *args)
-        return (u_measured * np.nan if self.config.seed == 1 and step == 5 else u_measured), u_true
+    def failing(self, *args):
+        u_measured, u_true = measured(self, *args)
+        if self.rows.counts[1] == 5:  # seed 1's step 5
+            u_measured[1] = np.nan
+        return u_measured, u_true
 
-    monkeypatch.setattr(RunLoop, "checked", failing)
-    batched = run_batch(configs)
+    monkeypatch.setattr(Driver, "_measured", failing)
+    driver = Driver(configs)
+    with driver.batch:
+        driver.warm_up()
+        for step in range(base.steps + 1):
+            driver.step(step)
+    batched = driver.finish()
     assert isinstance(batched[1], PluginError) and "at learning step 5" in str(batched[1])
     assert "of unit 1 " in str(batched[1])  # numbered within its own run
-    for got, expected in zip([batched[0], batched[2]], alone):
-        pd.testing.assert_frame_equal(got.units(), expected.units(), check_exact=True)
+    stopped = driver.records[1]
+    assert stopped.n_steps == 5
+    for got, expected in zip(tables(stopped), tables(alone[1])):
+        expected = expected[expected.step < 5].reset_index(drop=True)
+        pd.testing.assert_frame_equal(got, expected, check_exact=True)
+    for got, expected in zip([batched[0], batched[2]], [alone[0], alone[2]]):
+        for got_table, expected_table in zip(tables(got), tables(expected)):
+            pd.testing.assert_frame_equal(got_table, expected_table, check_exact=True)
+
+
+def test_each_run_reads_its_own_rows_of_the_shared_store():
+    """Rows added for some runs at a time (a batch's step), or one run at a time (units on clocks of their own),
+    past the store's first capacity: each run's records are its own rows, in order, and no other."""
+    from morphbench.experiment.records import STORED_COLUMNS, RunRecords, StepRows
+
+    rows, n = StepRows(3, capacity=2), 2
+    records = [RunRecords(CASES["random"], rows, index) for index in range(3)]
+
+    def add(runs, step):
+        values = np.array([[10 * r + step + u / 10 for u in range(n)] for r in runs])
+        rows.add(np.array(runs), step, 0.5 * step, [f"r{r}" for r in runs],
+                 {name: values.astype(kind) for name, kind in STORED_COLUMNS.items()})
+
+    for step in range(5):
+        add([0, 1, 2] if step < 2 else [0, 2], step)  # run 1 stops after step 1
+    add([2], 5)
+    assert [r.n_steps for r in records] == [5, 2, 6]
+    for index, record in enumerate(records):
+        units = record.units()
+        expected = [10 * index + step + u / 10 for step in range(record.n_steps) for u in range(n)]
+        assert units.u_true.tolist() == expected and units.step.tolist() == np.repeat(range(record.n_steps), n).tolist()
+        assert units.unit.tolist() == [1, 2] * record.n_steps
+        steps = record.steps()
+        assert steps.time_s.tolist() == [0.5 * step for step in range(record.n_steps)]
+        assert set(steps.event) == {f"r{index}"}
 
 
 def test_only_the_seeds_may_differ_and_only_quasi_static_chains_batch():

@@ -96,7 +96,9 @@ def test_the_central_env_refuses_what_is_not_n_real_phases(action):
 
 
 def break_at(monkeypatch, step):
-    original = RunLoop.check_physics
+    """The run's own validity check finds the world left the model at ``step`` (at that step the quick test of a
+    batch's runs at once, ``all_inside``, does not pass, so that each run's own check runs, as it would)."""
+    original, all_inside = RunLoop.check_physics, RunLoop.all_inside
 
     def check(self, at, *samples):
         if at == step:
@@ -104,6 +106,8 @@ def break_at(monkeypatch, step):
         original(self, at, *samples)
 
     monkeypatch.setattr(RunLoop, "check_physics", check)
+    monkeypatch.setattr(RunLoop, "all_inside", staticmethod(lambda loops, at, *poses: at != step and
+                                                            all_inside(loops, at, *poses)))
 
 
 def test_a_physics_error_ends_the_parallel_episode(monkeypatch):

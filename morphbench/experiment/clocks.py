@@ -159,7 +159,7 @@ class OwnClocks:
 
     def propose(self, step: int, due: np.ndarray) -> None:
         """The ``due`` units' trial phases for ``step``, run by their pumps from now."""
-        controller, alive = self.loop.controller, self.loop.state.alive()
+        controller, alive = self.loop.controller, self.loop.alive
         tried = controller.propose(step, alive) if due.all() else controller.propose(step, alive, units=due)
         self._row(step).tried[due] = tried[due]
         self.running[due] = tried[due]
@@ -168,7 +168,7 @@ class OwnClocks:
     def start(self, due: np.ndarray) -> None:
         """The ``due`` units start measuring."""
         self._take()
-        position = self.loop.state.position()
+        position = self.loop.position
         for b, bank in enumerate(self.banks):
             self.started[b, due] = bank.displacement()[position][due]
 
@@ -177,7 +177,7 @@ class OwnClocks:
         learners' update."""
         self._take()
         loop = self.loop
-        position, alive, noise = loop.state.position(), loop.state.alive(), loop.state.noise
+        position, alive, noise = loop.position, loop.alive, loop.state.noise
         moved = np.array([bank.displacement()[position] for bank in self.banks]) - self.started
         to_mm_per_cycle = 1000.0 / self.cycles
         row = self._row(step)

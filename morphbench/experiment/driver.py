@@ -6,22 +6,28 @@
 
 A run is a batch of one world (``physics.make_world(..., copies=1)``); runs that differ only in their seeds share one
 world holding a copy of the assembly each when the backend can (``batchable``), so the simulator is called once per
-step for all of them. Each run keeps its own loop: its controller, sensors, noise streams, events, validity checks
-and records, so every run's records equal those of ``run`` with the same configuration, bit for bit
-(tests/test_batch.py). A run that fails (a plug-in error, a PhysicsError) stops alone: its copy goes on moving,
-unseen, and the other runs finish.
+step for all of them. Each run keeps its own loop: its controller, sensors, noise streams, events, validity and
+records. What is the same arithmetic on every run is done once over every run's units side by side, arrays (runs,
+units): the trial phases set, the measured velocities, the validity tests when every run passes them, a step's
+records; a batch's built-in learners and ideal sensors are one each. The same numbers in the same order either way,
+so every run's records equal those of ``run`` with the same configuration, bit for bit (tests/test_batch.py). A run
+that fails (a plug-in error, a PhysicsError) stops alone, with its rows of the steps before: its copy goes on
+moving, unseen, and the other runs finish.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from morphbench.experiment.clocks import Schedule, clocked
-from morphbench.experiment.records import RunRecords
+from morphbench.experiment.events import Event, describe
+from morphbench.experiment.records import RunRecords, StepRows
 from morphbench.experiment.run import Measurement, RunConfig, RunLoop, ground_poses
 from morphbench.learning import Controller, load_learner_class, make_controller
 from morphbench.learning.arrays import RunView
@@ -59,7 +65,7 @@ class Driver:
         self.joint_sensor = None if alone or first.sensor.kind != "ideal" else IdealSensor(
             n_units * len(configs), first.sensor.sample_period)
         """the ideal sensors of every run's units as one bank (each run's own then unused), or None."""
-        self.slices = [slice(index * n_units, (index + 1) * n_units) for index in range(len(configs))]
+        self.n_units = n_units
         if self.joint is not None:
             controllers = [RunView(self.joint, index, n_units) for index in range(len(configs))]
         if controllers is None:
@@ -72,7 +78,9 @@ class Driver:
         check_memory(first.shape, memory_estimate(first.shape, first.physics, first.environment, scene,
                                                   round(cycles / first.physics.timestep), len(configs)))
         self.batch = make_world(first.shape, first.physics, first.environment, scene=scene, copies=len(configs))
-        self.records = [RunRecords(config) for config in configs]
+        self.rows = StepRows(len(configs), capacity=first.steps + 1)
+        """every run's records, stored a step of all the runs at a time."""
+        self.records = [RunRecords(config, self.rows, index) for index, config in enumerate(configs)]
         self.loops: dict[int, RunLoop] = self._each(
             lambda i, world: RunLoop(configs[i], controllers[i], world, on_tick), self.batch.worlds)
         for record, world in zip(self.records, self.batch.worlds):
@@ -83,6 +91,9 @@ class Driver:
         self.observe = (lambda k: on_tick(world)) if on_tick is not None else None
         self.schedule = Schedule(self) if clocked(first.environment) else None
         """the timeline of units with clocks of their own (experiment.clocks); None: one clock, the loop below."""
+        self.event_steps = {event.step for event in first.events}
+        self._places: _Places | None = None
+        """every run's units' places, pieces and life, found again after events (``_apply_events``)."""
 
     def _each(self, action, items) -> dict:
         """``action(index, item)`` for every run still going, by index; a run whose action raises stops there."""
@@ -122,72 +133,139 @@ class Driver:
         step's records too, at the last)."""
         if self.schedule is not None:
             return self.schedule.step(step)
-        loops, records = self._loops(), self.records
-        applied = self._each(lambda i, loop: loop.apply_events(step), loops)
+        loops = self._loops()
+        applied = self._apply_events(step, loops)
         tried = self._propose(step, loops)
         if not self.going():
             return {}
         _, discard, measured = self.ticks
         self.batch.advance(discard, self.observe)
-        displacements, samples = self._measure(loops, measured)
-        going = sorted(displacements)
-        inside = RunLoop.all_inside([loops[i] for i in going], step, [samples[i] for i in going]) if going else False
-        velocities = self._each(lambda i, loop: loop.checked(step, displacements[i], samples[i], inside), loops)
-        accepted = self._update(step, loops, {i: u_measured for i, (u_measured, _) in velocities.items()})
-        xy, heading = ground_poses(*self.batch.unit_poses())
-        self._each(lambda i, loop: loop.record(records[i], step, tried[i], *velocities[i], accepted[i], applied[i],
-                                               (xy[self.slices[i]], heading[self.slices[i]])),
-                   [loop if i in accepted else None for i, loop in enumerate(loops)])
-        return {i: velocities[i][0] for i in accepted if self.outcome[i] is None}
+        sensed, true, samples = self._measure(loops, measured)
+        u_measured, u_true = self._measured(loops, sensed, true)
+        self._check_physics(step, loops, samples)
+        accepted, kept = self._update(step, loops, u_measured)
+        self._record(step, loops, applied, tried, u_measured, u_true, accepted, kept)
+        return {i: u_measured[i] for i in self._going()}
 
-    def _alive(self, loops: list[RunLoop | None]) -> np.ndarray:
-        """Every run's units side by side: alive in a run still going."""
-        alive = np.zeros(self.configs[0].shape.n_units * len(loops), dtype=bool)
-        for index, loop in enumerate(loops):
-            if loop is not None and self.outcome[index] is None:
-                alive[self.slices[index]] = loop.state.alive()
-        return alive
+    def _going(self) -> np.ndarray:
+        """The runs still going, by index."""
+        return np.flatnonzero([outcome is None for outcome in self.outcome])
 
-    def _propose(self, step: int, loops: list[RunLoop | None]) -> dict[int, np.ndarray]:
-        """Every run's trial phases, set in its world."""
+    def _live(self) -> np.ndarray:
+        """Every run's units (runs, n_units): alive in a run still going."""
+        going = np.array([outcome is None for outcome in self.outcome])
+        return self._places.alive & going[:, None]
+
+    def _joined(self, per_run: dict[int, np.ndarray], fill=0.0) -> np.ndarray:
+        """Arrays of some runs' units side by side (runs, n_units), ``fill`` for the other runs."""
+        joined = np.full((len(self.configs), self.n_units), fill)
+        for index, values in per_run.items():
+            joined[index] = values
+        return joined
+
+    def _apply_events(self, step: int, loops: list[RunLoop | None]) -> dict[int, list[Event]]:
+        """The events of ``step`` in every run going (the same in each: their configurations differ only in their
+        seeds), by index; the units' places found again after any."""
+        applied = self._each(lambda i, loop: loop.apply_events(step), loops) if step in self.event_steps else {}
+        if self._places is None or any(applied.values()):
+            self._places = _Places.of(loops, self.n_units)
+        return applied
+
+    def _propose(self, step: int, loops: list[RunLoop | None]) -> np.ndarray:
+        """Every run's trial phases (runs, n_units), set in the worlds of the runs going, by position."""
         if self.joint is None:
-            return self._each(lambda i, loop: loop.propose(step), loops)
-        tried = self.joint.propose(step, self._alive(loops))
-        return self._each(lambda i, loop: loop.set_trial(tried[self.slices[i]]), loops)
+            tried = self._joined(self._each(lambda i, loop: loop.propose(step), loops))
+        else:
+            tried = self.joint.propose(step, self._live().ravel()).reshape(len(loops), -1)
+        going = self._going()
+        self.batch.set_phases(going, tried.ravel()[self._places.order[going]])
+        return tried
 
-    def _measure(self, loops: list[RunLoop | None], n_ticks: int) -> tuple[dict[int, list], list]:
-        """Advance the measured ticks; per run going its sensor banks' displacements (m) and its units' sampled
-        poses."""
+    def _measure(self, loops: list[RunLoop | None], n_ticks: int
+                 ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
+        """Advance the measured ticks; per run (runs, n_units, by position) its sensor bank's displacements (m) and
+        its ground truth's (the same bank for an ideal sensor), and its units' sampled poses (runs, K, n_units, 3)
+        and (..., 4)."""
         if self.joint_sensor is None:
             measurements = self._each(lambda i, loop: loop.start_measurement(), loops)
             every = next(iter(measurements.values())).every if measurements else 1
             samples = self.batch.advance_sampled(n_ticks, every, self.on_tick)
-            return self._each(lambda i, m: m.end(*samples[i]), [measurements.get(i) for i in range(len(loops))]), \
-                samples
+            banks = self._each(lambda i, m: m.end(*samples[i]), [measurements.get(i) for i in range(len(loops))])
+            return (self._joined({i: moved[0] for i, moved in banks.items()}),
+                    self._joined({i: moved[-1] for i, moved in banks.items()}),
+                    (np.stack([p for p, _ in samples]), np.stack([q for _, q in samples])))
         measurement = Measurement([self.joint_sensor], n_ticks, self.batch.unit_poses(), self.batch.ticks_in)
         positions, orientations = self.batch.advance_sampled_joined(n_ticks, measurement.every)
-        moved, = measurement.end(positions, orientations)
-        samples = [(positions[:, self.slices[i]], orientations[:, self.slices[i]]) for i in range(len(loops))]
-        return {i: [moved[self.slices[i]]] for i, loop in enumerate(loops) if loop is not None and
-                self.outcome[i] is None}, samples
+        moved = measurement.end(positions, orientations)[0].reshape(len(loops), -1)
+        k = len(positions)
+        return moved, moved, (positions.reshape(k, len(loops), -1, 3).swapaxes(0, 1),
+                              orientations.reshape(k, len(loops), -1, 4).swapaxes(0, 1))
 
-    def _update(self, step: int, loops: list[RunLoop | None], measured: dict[int, np.ndarray]) -> dict[int, np.ndarray]:
-        """The controllers take the measurements of the runs in ``measured``: each run's own, or the joint learners
-        all at once; per run whether each unit accepted its trial (a run whose measurements a learner refuses stops
-        there, as alone)."""
+    def _measured(self, loops: list[RunLoop | None], sensed: np.ndarray, true: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """Per run and unit (runs, n_units) the measured velocity (with the unit's own noise; NaN for a dead unit)
+        and the true one, mm/cycle, from the displacements (m, by position) over the measured cycles."""
+        places, to_mm_per_cycle = self._places, 1000.0 / self.configs[0].learner_params.cycles_per_step
+        u_true = true.ravel()[places.where] * to_mm_per_cycle
+        noise = 0.0  # added without noise, as to every unit with it (-0.0 + 0.0 is 0.0: the records keep that)
+        noisy = [i for i in self._going() if places.noise[i]]
+        if noisy:
+            noise = np.zeros(u_true.shape)
+            for index in noisy:  # each unit draws from its own stream
+                noise[index] = [rng.normal(0.0, places.noise[index]) for rng in loops[index].noise_rngs]
+        u_measured = sensed.ravel()[places.where] * to_mm_per_cycle + noise
+        u_measured[~places.alive] = np.nan
+        return u_measured, u_true
+
+    def _check_physics(self, step: int, loops: list[RunLoop | None], samples: tuple[np.ndarray, np.ndarray]
+                       ) -> None:
+        """Every run going checked for the model's validity: all at once when every one surely passes (nearly every
+        step), else each run's own ``check_physics``, which finds what fails (and stops that run)."""
+        going = self._going()
+        if not len(going):
+            return
+        positions, orientations = self.batch.body_poses()
+        if RunLoop.all_inside([loops[i] for i in going], step, (samples[0][going], samples[1][going]),
+                              (positions[going], orientations[going])):
+            return
+        self._each(lambda i, loop: loop.check_physics(step, (samples[0][i], samples[1][i])), loops)
+
+    def _update(self, step: int, loops: list[RunLoop | None], u_measured: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """The controllers take the measurements: each run's own, or the joint learners every run's at once; per run
+        and unit (runs, n_units) whether it accepted its trial, and its kept phase (a run whose measurements a
+        learner refuses stops there, as alone)."""
         if self.joint is None:
-            return self._each(lambda i, loop: loop.update(measured[i], step), [
-                loop if i in measured else None for i, loop in enumerate(loops)])
-        velocity = np.zeros(self.configs[0].shape.n_units * len(loops))
-        for index, u_measured in measured.items():
-            velocity[self.slices[index]] = u_measured
-        self._each(lambda i, loop: loop.controller.check_finite(step, measured[i], loop.state.alive()),
-                   [loop if i in measured else None for i, loop in enumerate(loops)])
-        accepted, kept = self.joint.update(step, velocity, self._alive(loops))
-        for index in measured:
-            if self.outcome[index] is None:
-                loops[index].kept = kept[self.slices[index]]
-        return {i: accepted[self.slices[i]] for i in measured if self.outcome[i] is None}
+            accepted = self._each(lambda i, loop: loop.update(u_measured[i], step), loops)
+            return self._joined(accepted, False), self._joined({i: loops[i].kept for i in accepted})
+        live = self._live()
+        for index in np.flatnonzero((live & ~np.isfinite(u_measured)).any(axis=1)):
+            self.guard(index, functools.partial(loops[index].controller.check_finite, step, u_measured[index],
+                                                live[index]))
+        accepted, kept = self.joint.update(step, u_measured.ravel(), self._live().ravel())
+        kept = kept.reshape(u_measured.shape)
+        for index in self._going():
+            loops[index].kept = kept[index]
+        return accepted.reshape(kept.shape), kept
+
+    def _record(self, step: int, loops: list[RunLoop | None], applied: dict[int, list[Event]], tried: np.ndarray,
+                u_measured: np.ndarray, u_true: np.ndarray, accepted: np.ndarray, kept: np.ndarray) -> None:
+        """The step's rows of every run going, stored at once: per unit what ``RunLoop.record`` stores of one run
+        (its position, piece, pose, the controller's memory) and the events applied."""
+        if self.joint is None:
+            memory = self._each(lambda i, loop: loop.controller.memory(), loops)
+            memory = self._joined({i: values for i, values in memory.items() if values is not None}, np.nan)
+        else:
+            memory = self.joint.memory().reshape(kept.shape)
+        runs, places = self._going(), self._places
+        xy, heading = ground_poses(*self.batch.unit_poses())  # every run's units, by position
+        where = places.where[runs]
+        event = [describe(applied[i]) for i in runs] if any(applied.values()) else ""
+        self.rows.add(runs, step, self.batch.worlds[0].time, event, {
+            "position": places.position[runs] + 1, "piece": places.piece[runs], "phase_tried": tried[runs],
+            "phase_kept": kept[runs], "u_measured": u_measured[runs], "u_true": u_true[runs],
+            "u_memory": memory[runs], "accepted": accepted[runs], "x_m": xy[where, 0], "y_m": xy[where, 1],
+            "heading_rad": heading[where]})
 
     def finish(self) -> list[RunRecords | BaseException]:
         """Each run's records (its wall time the batch's shared out evenly), or the exception that stopped it."""
@@ -200,6 +278,34 @@ class Driver:
 
     def close(self) -> None:
         self.batch.close()
+
+
+@dataclass(frozen=True)
+class _Places:
+    """Every run's units side by side (runs, n_units), as the events left them (``RunLoop``'s ``position``,
+    ``piece`` and ``alive``; a run without a loop: its units in order, dead)."""
+
+    position: np.ndarray
+    """where each unit sits in its run."""
+    where: np.ndarray
+    """``position`` among every run's units (run r's place p is r * n_units + p: the batch's order)."""
+    order: np.ndarray
+    """the unit at each place, among every run's units (``RunState.order``)."""
+    piece: np.ndarray
+    alive: np.ndarray
+    noise: list[float]
+    """per run, its measurement noise now (mm/cycle)."""
+
+    @classmethod
+    def of(cls, loops: list[RunLoop | None], n_units: int) -> _Places:
+        first = np.arange(n_units)
+        offsets = n_units * np.arange(len(loops))[:, None]
+        position = np.array([first if loop is None else loop.position for loop in loops])
+        order = np.array([first if loop is None else loop.state.order for loop in loops])
+        return cls(position=position, where=position + offsets, order=order + offsets,
+                   piece=np.array([np.ones(n_units, dtype=int) if loop is None else loop.piece for loop in loops]),
+                   alive=np.array([np.zeros(n_units, dtype=bool) if loop is None else loop.alive for loop in loops]),
+                   noise=[0.0 if loop is None else loop.state.noise for loop in loops])
 
 
 def _interrupted(exc: BaseException) -> bool:

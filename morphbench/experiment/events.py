@@ -194,6 +194,12 @@ class NoiseEvent(Event):
         state.noise = self.sigma
 
 
+def describe(events: list[Event]) -> str:
+    """What the records say of the events applied at a step (column ``event``): each one's ``describe()``, '' for
+    none."""
+    return "; ".join(event.describe() for event in events)
+
+
 EVENT_KINDS: dict[str, type[Event]] = {"friction": FrictionEvent, "damage": DamageEvent, "shuffle": ShuffleEvent,
                                        "cut": CutEvent, "noise": NoiseEvent}
 

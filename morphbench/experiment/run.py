@@ -20,7 +20,7 @@ from morphbench.bench.identity import shape_id
 from morphbench.errors import ConfigError, PhysicsError
 from morphbench.experiment.records import RunRecords
 from morphbench.learning import Controller
-from morphbench.experiment.events import CutEvent, Event, RunState, parse_events
+from morphbench.experiment.events import CutEvent, Event, RunState, describe, parse_events
 from morphbench.params import (
     DEFAULT_PHYSICS,
     DEFAULT_SEED,
@@ -162,10 +162,12 @@ def ground_poses(positions: np.ndarray, orientations: np.ndarray) -> tuple[np.nd
 
 
 class RunLoop:
-    """One run's world, sensors, controller and what events change; each method is a phase of a learning step:
-    ``apply_events``, ``propose``, (the discarded cycles), ``start_measurement``, (the measured cycles),
-    ``checked`` (measured, check_physics), ``update``, ``record``. ``experiment.driver.Driver`` takes every run of a
-    batch through them in that order: ``run``, the suites and the environments all go through it."""
+    """One run's world, sensors, controller and what events change; its methods are its part of each phase of a
+    learning step: ``apply_events``, ``propose``, (the discarded cycles), ``start_measurement``, (the measured
+    cycles), ``check_physics``, ``update``, ``record``. ``experiment.driver.Driver`` takes every run of a batch
+    through the phases in that order, and does at once for all of them what is the same arithmetic on each (the
+    trial phases set, the measured velocities, the validity tests when all pass, the records): ``run``, the suites
+    and the environments all go through it."""
 
     def __init__(self, config: RunConfig, controller: Controller, world: WorldInterface,
                  on_tick: Callable[[WorldInterface], None] | None):
@@ -189,30 +191,29 @@ class RunLoop:
         self.discard_ticks = world.ticks_in(lp.discard_cycles * cycle)
         """ticks run after each phase change before measuring (the transient dropped)."""
         self.measured_ticks = world.ticks_in(lp.cycles_per_step * cycle)
+        self._place()
 
-    def checked(self, step: int, displacements: list[np.ndarray], samples: tuple[np.ndarray, np.ndarray],
-                inside: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """``measured`` from the sensor banks' ``displacements``, once ``check_physics`` has passed."""
-        u_measured, u_true = self.measured(displacements)
-        self.check_physics(step, samples, inside)
-        return u_measured, u_true
+    def _place(self) -> None:
+        """``position[u]``, where unit u sits (``RunState.position``), ``piece[u]``, the 1-based piece of the world
+        it belongs to, and ``alive[u]``: only events change them (a shuffle, a cut, a damage), so they are found
+        once after each step that has any, not every step."""
+        self.position, self.alive = self.state.position(), self.state.alive()
+        piece_of_body = {body: k for k, piece in enumerate(self.world.pieces()) for body in piece}
+        self.piece = np.array([piece_of_body[self.config.shape.units[p]] for p in self.position]) + 1
 
     def apply_events(self, step: int) -> list[Event]:
         """The events of ``step``, applied in their order."""
         applied = self.events.get(step, [])
         for event in applied:
             event.apply(self.world, self.state)
+        if applied:
+            self._place()
         return applied
 
     def propose(self, step: int) -> np.ndarray:
-        """Each unit's trial phase from the controller, set in the world by position (a dead unit keeps its phase
-        and gets no measurement)."""
-        return self.set_trial(self.controller.propose(step, self.state.alive()))
-
-    def set_trial(self, tried: np.ndarray) -> np.ndarray:
-        """The world runs each unit's trial phase ``tried`` (in unit order) from now."""
-        self.world.set_phases(tried[self.state.order])
-        return tried
+        """Each unit's trial phase from the controller (a dead unit keeps its phase and gets no measurement); the
+        driver sets them in the world, by position."""
+        return self.controller.propose(step, self.alive)
 
     def start_measurement(self) -> Measurement:
         """The sensors (and the ground truth) start measuring the ``cycles_per_step`` cycles after the discarded
@@ -220,50 +221,34 @@ class RunLoop:
         return Measurement([self.sensor] if self.truth is None else [self.sensor, self.truth], self.measured_ticks,
                            self.world.unit_poses(), self.world.ticks_in)
 
-    def measured(self, displacements: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-        """Per unit the measured velocity (with the unit's own noise; NaN for a dead unit) and the true one,
-        mm/cycle, from the sensor banks' ``displacements`` (m) over the measured cycles (the sensor's, then the
-        ground truth's if it has its own)."""
-        sensed, true = displacements[0], displacements[-1]
-        position, to_mm_per_cycle = self.state.position(), 1000.0 / self.config.learner_params.cycles_per_step
-        noise = self.state.noise
-        u_true = true[position] * to_mm_per_cycle
-        # 0.0 added without noise, as to every unit with it (-0.0 + 0.0 is 0.0: the records keep that)
-        u_measured = sensed[position] * to_mm_per_cycle + (np.array([rng.normal(0.0, noise) for rng in
-                                                                     self.noise_rngs]) if noise else 0.0)
-        u_measured[~self.state.alive()] = np.nan
-        return u_measured, u_true
-
-    def check_physics(self, step: int, samples: tuple[np.ndarray, np.ndarray], inside: bool = False) -> None:
+    def check_physics(self, step: int, samples: tuple[np.ndarray, np.ndarray]) -> None:
         """A PhysicsError if the world has left the model's validity since the previous check, or at any of the
         measured cycles' ``samples`` (the units' sampled poses)."""
-        self.validity.check(step, self.state.order, samples, inside)
+        self.validity.check(step, self.state.order, samples)
 
     @staticmethod
-    def all_inside(loops: list[RunLoop], step: int, samples: list[tuple[np.ndarray, np.ndarray]]) -> bool:
-        """Whether every run of ``loops`` (runs of one configuration but for the seed, each with its ``samples``)
-        is surely still in the model's validity: ``_Validity``'s tests at once over them all."""
-        return _Validity.all_inside([loop.validity for loop in loops], step, samples)
+    def all_inside(loops: list[RunLoop], step: int, samples: tuple[np.ndarray, np.ndarray],
+                   poses: tuple[np.ndarray, np.ndarray]) -> bool:
+        """Whether every run of ``loops`` (runs of one configuration but for the seed) is surely still in the model's
+        validity, from its units' ``samples`` and its bodies' ``poses`` now, stacked run by run: ``_Validity``'s
+        tests at once over them all. If so, their ``check_physics`` of this step is done; else it finds what
+        fails."""
+        return _Validity.all_inside([loop.validity for loop in loops], step, samples, poses)
 
     def update(self, u_measured: np.ndarray, step: int) -> np.ndarray:
         """The controller gets the measurements (a per-unit learner its own unit's only); whether each unit accepted
         its trial."""
-        accepted, self.kept = self.controller.update(step, u_measured, self.state.alive())
+        accepted, self.kept = self.controller.update(step, u_measured, self.alive)
         return accepted
 
     def record(self, records: RunRecords, step: int, tried: np.ndarray, u_measured: np.ndarray, u_true: np.ndarray,
-               accepted: np.ndarray, applied: list[Event], ground: tuple[np.ndarray, np.ndarray] | None = None
-               ) -> None:
-        """The step's row per unit, with its position, piece and pose, and the events applied; ``ground``: the
-        world's units' (n, 2) places on the ground and headings, if already known (``ground_poses``)."""
-        world, position = self.world, self.state.position()
-        kept = self.kept
-        piece_of_body = {body: k for k, piece in enumerate(world.pieces()) for body in piece}
-        piece = np.array([piece_of_body[self.config.shape.units[p]] for p in position]) + 1
-        xy, heading = ground_poses(*world.unit_poses()) if ground is None else ground  # units by position
-        records.add_step(step, world.time, tried, kept, u_measured, u_true, accepted, position + 1, piece,
-                         xy[position], heading[position], "; ".join(event.describe() for event in applied),
-                         self.controller.memory())
+               accepted: np.ndarray, applied: list[Event]) -> None:
+        """The step's row per unit, with its position, piece and pose, and the events applied (units on clocks of
+        their own record run by run; ``Driver`` stores the same rows of a batch's runs at once)."""
+        xy, heading = ground_poses(*self.world.unit_poses())  # units by position
+        position = self.position
+        records.add_step(step, self.world.time, tried, self.kept, u_measured, u_true, accepted, position + 1,
+                         self.piece, xy[position], heading[position], describe(applied), self.controller.memory())
 
 
 MAX_TILT_DEG = 45.0
@@ -323,17 +308,15 @@ class _Validity:
         self.min_upright = math.cos(math.radians(MAX_TILT_DEG)) + UPRIGHT_MARGIN
         self._link_cache: dict = {}
 
-    def check(self, step: int, order: np.ndarray, samples: tuple[np.ndarray, np.ndarray], inside: bool = False
-              ) -> None:
+    def check(self, step: int, order: np.ndarray, samples: tuple[np.ndarray, np.ndarray]) -> None:
         """A PhysicsError naming the first body (or link) found outside the model (unit numbers by identity:
         ``order[p]`` is the unit at position p); ``samples`` are the units' sampled poses of the measured cycles,
         (K, n_units, 3) positions and (K, n_units, 4) quaternions, as ``advance_sampled`` gives them. The first
-        detector that fires names what it found first, in the order above. With ``inside`` (``all_inside`` found
-        every test passes) the detectors do not run."""
+        detector that fires names what it found first, in the order above."""
         positions, orientations = self.world.poses()
         frames = [(self.units, *samples),  # the units inside the window
                   (self.bodies, positions[None], orientations[None])]  # every body at its end
-        if not (inside or self._surely_inside(step, frames, positions, self.positions)):
+        if not self._surely_inside(step, frames, positions, self.positions):
             for bodies, frame_positions, frame_orientations in frames:
                 self._check_bodies(step, order, bodies, frame_positions, frame_orientations)
             self._check_speed(step, order, positions)
@@ -342,15 +325,20 @@ class _Validity:
         self.positions, self.time = positions, self.world.time
 
     @staticmethod
-    def all_inside(validities: list[_Validity], step: int, samples: list[tuple[np.ndarray, np.ndarray]]) -> bool:
+    def all_inside(validities: list[_Validity], step: int, samples: tuple[np.ndarray, np.ndarray],
+                   poses: tuple[np.ndarray, np.ndarray]) -> bool:
         """``_surely_inside`` of several worlds at once (one validity each, of the same shape and events, checked at
-        the same times): their samples and poses stacked on a leading axis."""
+        the same times): their units' ``samples`` (worlds, K, n_units, 3) and (..., 4) and their bodies' ``poses``
+        now (worlds, n_bodies, 3) and (..., 4). If every one passes, each validity moves on to its world's poses, as
+        its ``check`` would."""
         first = validities[0]
-        poses = [validity.world.poses() for validity in validities]
-        positions = np.stack([p for p, _ in poses])
-        frames = [(first.units, np.stack([p for p, _ in samples]), np.stack([q for _, q in samples])),
-                  (first.bodies, positions[:, None], np.stack([q for _, q in poses])[:, None])]
-        return first._surely_inside(step, frames, positions, np.stack([v.positions for v in validities]))
+        positions, orientations = poses
+        frames = [(first.units, *samples), (first.bodies, positions[:, None], orientations[:, None])]
+        if not first._surely_inside(step, frames, positions, np.stack([v.positions for v in validities])):
+            return False
+        for validity, moved in zip(validities, positions):
+            validity.positions, validity.time = moved, validity.world.time
+        return True
 
     def _surely_inside(self, step: int, frames: list, positions: np.ndarray, previous: np.ndarray) -> bool:
         """Whether every detector passes, found at once (nearly every step of nearly every run): the detectors

@@ -65,6 +65,15 @@ class Copies(Batch):
         positions, orientations = self.poses()
         return positions[units], orientations[units]
 
+    def body_poses(self):
+        positions, orientations = self.poses()  # copy c's body b at c * n_bodies + b
+        return positions.reshape(len(self.worlds), -1, 3), orientations.reshape(len(self.worlds), -1, 4)
+
+    def set_phases(self, worlds, phases):
+        """Every copy's phases at once, as each copy's ``set_phases`` sets its own."""
+        units = (np.asarray(worlds)[:, None] * self.n_units + np.arange(self.n_units)).ravel()
+        self.world.phases[units] = np.mod(np.asarray(phases, dtype=float), 1.0).ravel()
+
     def close(self):
         self.world.close()
 

@@ -121,6 +121,16 @@ class Batch:
         poses = [world.unit_poses() for world in self.worlds]
         return np.concatenate([p for p, _ in poses]), np.concatenate([q for _, q in poses])
 
+    def body_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every world's ``poses()``, stacked: (worlds, n_bodies, 3) and (worlds, n_bodies, 4)."""
+        poses = [world.poses() for world in self.worlds]
+        return np.stack([p for p, _ in poses]), np.stack([q for _, q in poses])
+
+    def set_phases(self, worlds: np.ndarray, phases: np.ndarray) -> None:
+        """``set_phases`` of each of the worlds ``worlds`` (indices), ``phases`` (len(worlds), n_units) in order."""
+        for index, values in zip(worlds, phases):
+            self.worlds[index].set_phases(values)
+
     def ticks_in(self, duration: float) -> int:
         """Ticks in ``duration`` seconds: the worlds share their clock."""
         return self.worlds[0].ticks_in(duration)
