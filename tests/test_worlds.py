@@ -165,3 +165,24 @@ def test_a_batch_equals_its_runs_alone(name):
     for together, seed in zip(run_batch(configs), configs):
         assert together.steps().equals(run(seed).steps()) and together.units().equals(run(seed).units())
     assert not run(configs[0]).units().equals(run(configs[1]).units())
+
+
+@pytest.mark.parametrize("name", WORLDS)
+def test_a_batch_sets_phases_and_reads_poses_as_its_worlds_do(name):
+    """``Batch.set_phases`` and ``Batch.body_poses``, the driver's calls for every run at once, do what each world's
+    own ``set_phases`` and ``poses`` do (a world left out keeps its phases)."""
+    with batch_of(name) as batch, batch_of(name) as alone:
+        count, n = len(batch.worlds), batch.worlds[0].shape.n_units
+        values = np.linspace(-0.4, 1.7, count * n).reshape(count, n)  # wrapped into [0, 1) by both
+        chosen = np.arange(count)[-1:] if count > 1 else np.arange(count)
+        batch.set_phases(chosen, values[chosen])
+        for index in chosen:
+            alone.worlds[index].set_phases(values[index])
+        for got, expected in zip(batch.worlds, alone.worlds):
+            np.testing.assert_array_equal(got.phases, expected.phases)
+        batch.advance(TICKS)
+        positions, orientations = batch.body_poses()
+        assert positions.shape == (count, len(batch.worlds[0].shape.bodies), 3)
+        for index, world in enumerate(batch.worlds):
+            np.testing.assert_array_equal(positions[index], world.poses()[0])
+            np.testing.assert_array_equal(orientations[index], world.poses()[1])
