@@ -20,7 +20,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import time
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -280,7 +279,7 @@ class Driver:
         self.batch.close()
 
 
-@dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True)
 class _Places:
     """Every run's units side by side (runs, n_units), as the events left them (``RunLoop``'s ``position``,
     ``piece`` and ``alive``; a run without a loop: its units in order, dead)."""
