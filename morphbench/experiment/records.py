@@ -107,6 +107,8 @@ class RunRecords:
         self.backend: str | None = None
         """the physics backend the run's world used (``physics.resolve_backend``; 'auto' resolved), set by its
         driver."""
+        self._built: tuple[int, pd.DataFrame, pd.DataFrame, pd.DataFrame] | None = None
+        """(steps recorded, units, steps, pieces): the tables as last built (``_tables``)."""
 
     def add_step(self, step, time_s, tried, kept, u_measured, u_true, accepted, position, piece, xy, heading,
                  event="", u_memory=None) -> None:
@@ -140,18 +142,37 @@ class RunRecords:
 
     def units(self) -> pd.DataFrame:
         """Per step and unit (see the module docstring)."""
+        return self._tables()[0].copy()
+
+    def steps(self) -> pd.DataFrame:
+        """Per step (see the module docstring). Dead units (NaN measurement) are left out of the means."""
+        return self._tables()[1].copy()
+
+    def pieces(self) -> pd.DataFrame:
+        """Per step and piece (see the module docstring)."""
+        return self._tables()[2].copy()
+
+    def _tables(self) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+        """The units, steps and pieces tables, built once for the steps recorded so far: a finished run's summary
+        and files read each of them several times (building them again was a third of a short run's cost)."""
+        if self._built is None or self._built[0] != self.n_steps:
+            units = self._units_table()
+            self._built = (self.n_steps, units, self._steps_table(units),
+                           self._scored(units, ["step", "piece"])[list(PIECE_COLUMNS)])
+        return self._built[1:]
+
+    def _units_table(self) -> pd.DataFrame:
         if not self.n_steps:
             return pd.DataFrame(columns=UNIT_COLUMNS)
         steps = self.rows.of(self.run, "step")
         n = self.rows.columns["phase_tried"].shape[-1]
-        table = pd.DataFrame({"step": np.repeat(steps, n), "unit": np.tile(np.arange(1, n + 1), len(steps)),
-                              **{name: self.rows.of(self.run, name).ravel() for name in STORED_COLUMNS}},
-                             columns=UNIT_COLUMNS)
-        return table.astype({"step": "int64", "unit": "int64", "position": "int64", "piece": "int64", "accepted": bool})
+        # StepRows holds each column in its type (STORED_COLUMNS): the table needs no conversion
+        return pd.DataFrame({"step": np.repeat(steps, n), "unit": np.tile(np.arange(1, n + 1, dtype=np.int64),
+                                                                          len(steps)),
+                             **{name: self.rows.of(self.run, name).ravel() for name in STORED_COLUMNS}},
+                            columns=UNIT_COLUMNS)
 
-    def steps(self) -> pd.DataFrame:
-        """Per step (see the module docstring). Dead units (NaN measurement) are left out of the means."""
-        units = self.units()
+    def _steps_table(self, units: pd.DataFrame) -> pd.DataFrame:
         table = pd.DataFrame({"step": self.rows.of(self.run, "step"), "time_s": self.rows.of(self.run, "time_s")})
         table = table.merge(self._scored(units, ["step"]), on="step", how="left")
         table["event"] = list(self.rows.of(self.run, "event"))
@@ -177,10 +198,6 @@ class RunRecords:
         track.loc[1:, "u_heading"] = 1000.0 * along / cycles
         return track[["step", "x_m", "y_m", "heading_rad", "u_heading"]]
 
-    def pieces(self) -> pd.DataFrame:
-        """Per step and piece (see the module docstring)."""
-        return self._scored(self.units(), ["step", "piece"])[list(PIECE_COLUMNS)]
-
     @staticmethod
     def _scored(units: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
         living = units[units.u_measured.notna()]
@@ -194,7 +211,7 @@ class RunRecords:
 
     def summary(self) -> dict[str, Any]:
         """Configuration, seed and the run's headline figures."""
-        steps, units = self.steps(), self.units()
+        units, steps, _ = self._tables()
         learning = steps[steps.step > 0]
         return {
             "config": self.config.to_dict(),
@@ -216,7 +233,7 @@ class RunRecords:
 
     def _final_by_piece(self, n_final: int) -> dict[str, float]:
         """Final true Ubar of each piece of the last step's assembly (one entry while uncut)."""
-        pieces = self.pieces()
+        pieces = self._tables()[2]
         last_steps = sorted(pieces.step.unique())[-n_final:]
         final = pieces[pieces.step.isin(last_steps)].groupby("piece").ubar_true.mean()
         return {str(piece): float(value) for piece, value in final.items()}
