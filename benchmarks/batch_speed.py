@@ -4,6 +4,7 @@ much of it is the solver, per run and learning step.
     python benchmarks/batch_speed.py                        # chain-3 (28 seeds x 300 steps), chain-7, chain-20
     git worktree add /tmp/before COMMIT && python benchmarks/batch_speed.py --compare /tmp/before
                                                             # against an earlier commit, alternately, side by side
+    python benchmarks/batch_speed.py --sizes                # 112 seeds in batches of 28, 56 and 112 (BATCH_SEEDS)
 
 The paper suite runs its conditions as such batches (up to 28 seeds, ideal sensor, the quasi-static chain solver):
 the time outside the solver is the Python around each learning step. Each figure is the best of ``--repeats``
@@ -63,13 +64,44 @@ def measure(repeats: int) -> dict:
     return out
 
 
+def sizes(repeats: int) -> None:
+    """CPU of 112 seeds (150 steps) run in batches of 28, 56 and 112, chain-3 and chain-20: what a batch's size
+    saves."""
+    from morphbench.experiment import RunConfig
+    from morphbench.experiment.driver import run_batch
+    from morphbench.params import SensorParams
+    from morphbench.shapes import load_shape
+
+    root = Path(__file__).resolve().parent.parent
+    print("| shape, 112 seeds x 150 steps | batches of 28: CPU s | of 56 | of 112 | 28 over 112 |")
+    print("|---|---|---|---|---|")
+    for name in ("chain-3", "chain-20"):
+        shape = load_shape(root / "shapes" / f"{name}.toml")
+        configs = [RunConfig(shape=shape, steps=150, seed=seed, sensor=SensorParams(kind="ideal"))
+                   for seed in range(112)]
+        run_batch(configs[:2])
+        best = {}
+        for _ in range(repeats):
+            for size in (28, 56, 112):
+                started = time.process_time()
+                for first in range(0, len(configs), size):
+                    run_batch(configs[first:first + size])
+                best[size] = min(best.get(size, float("inf")), time.process_time() - started)
+        print(f"| {name} | {best[28]:.2f} | {best[56]:.2f} | {best[112]:.2f} | {best[28] / best[112]:.2f} |",
+              flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--compare", help="another checkout of morphbench, timed alternately with this one")
     parser.add_argument("--rounds", type=int, default=2, help="with --compare: processes per checkout")
+    parser.add_argument("--sizes", action="store_true", help="112 seeds in batches of 28, 56 and 112")
     parser.add_argument("--json", action="store_true", help=argparse.SUPPRESS)  # one process's figures
     args = parser.parse_args()
+    if args.sizes:
+        sizes(args.repeats)
+        return
     if args.json:
         print(json.dumps(measure(args.repeats)))
         return

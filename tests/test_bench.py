@@ -272,6 +272,27 @@ def test_a_run_with_non_finite_ubar_fails_with_the_step(monkeypatch):
 # --- suite files -------------------------------------------------------------------------------------------------
 
 
+def test_a_condition_is_batched_in_pieces_that_keep_the_workers_busy(tmp_path):
+    suite = load_suite(write_suite(tmp_path, f"""
+        name = "many"
+        [defaults]
+        steps = 5
+        seeds = 16
+        [[experiment]]
+        name = "a"
+        shape = "{SHAPES / 'chain-3.toml'}"
+    """))
+    jobs, total = suite.jobs(), sum(job.cost for job in suite.jobs())
+
+    def seeds(size=112, budget=math.inf):
+        return [len(job.payload) if job.kind == "batch" else 1 for job in batched(jobs, size, budget)]
+
+    assert seeds() == [16]  # one condition's seeds together
+    assert seeds(budget=total / 8) == [2] * 8  # 4 jobs for each of 2 workers
+    assert seeds(size=5, budget=total / 2) == [5, 5, 5, 1]
+    assert [job.kind for job in batched(jobs, budget=0.0)] == ["run"] * 16  # at least one seed: each alone
+
+
 def test_suite_expansion_ids_are_stable_and_shared_runs_run_once(tmp_path):
     text = f"""
         name = "ids"

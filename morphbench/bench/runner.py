@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 import time
 from contextlib import contextmanager
@@ -27,9 +28,14 @@ from morphbench.errors import ConfigError
 from morphbench.files import directory_lock
 
 
-BATCH_SEEDS = 28
-"""seeds of a condition run together at most: enough to share the simulator's calls, few enough that the workers'
-loads stay even."""
+BATCH_SEEDS = 112
+"""seeds of a condition run together at most: a batch's step costs its Python once, whatever its size (28 chain-3
+seeds at a time cost 1.37x the CPU of 112: benchmarks/RESULTS.md)."""
+JOBS_PER_WORKER = 4
+"""a batch costs at most the suite's work to do over this many jobs per worker, so that the workers' loads stay even
+(a suite of one condition of 112 seeds on 2 workers runs as 8 batches)."""
+UNKNOWN_WORKERS = 8
+"""the workers assumed of an executor that does not say (a Dask cluster)."""
 
 
 @dataclass
@@ -60,8 +66,9 @@ def run_suite(suite: Suite, out: str | Path, executor=None, *, resume: bool = Fa
     reused. One process at a time writes ``out`` (``files.directory_lock``): another is refused. ``on_result(job,
     result)`` is called after each job is saved; an exception it raises (like Ctrl-C) stops the suite with every
     finished job saved and the rest cancelled. Seeds of a condition on the quasi-static chain model run together, up
-    to ``batch_seeds`` at a time (default BATCH_SEEDS; 1: each alone), with the same results; a batch whose worker
-    dies is run again seed by seed, so that only the seed that crashes fails.
+    to ``batch_seeds`` at a time (default BATCH_SEEDS; 1: each alone), a batch costing at most the work to do over
+    JOBS_PER_WORKER jobs per worker, with the same results; a batch whose worker dies is run again seed by seed, so
+    that only the seed that crashes fails.
     """
     started, started_at = time.perf_counter(), time.time()
     executor = executor or LocalExecutor()
@@ -75,7 +82,8 @@ def run_suite(suite: Suite, out: str | Path, executor=None, *, resume: bool = Fa
         bar = _progress_bar(suite, todo, executor, progress)
         # longest first: the long runs start early and the short ones fill the gaps at the end (tables are in plan
         # order)
-        work = sorted(batched(todo, batch_seeds or BATCH_SEEDS), key=lambda job: -job.cost)
+        budget = sum(job.cost for job in todo) / (JOBS_PER_WORKER * getattr(executor, "workers", UNKNOWN_WORKERS))
+        work = sorted(batched(todo, batch_seeds or BATCH_SEEDS, budget), key=lambda job: -job.cost)
         try:
             while work:
                 work = _run_round(work, executor, store, outcome, bar, len(todo), on_result)
@@ -130,9 +138,10 @@ def _run_round(work: list[Job], executor, store: Store, outcome: Outcome, bar, n
     return again
 
 
-def batched(jobs: list[Job], size: int = BATCH_SEEDS) -> list[Job]:
+def batched(jobs: list[Job], size: int = BATCH_SEEDS, budget: float = math.inf) -> list[Job]:
     """The run jobs of one condition that can run together (experiment.driver) as batch jobs of up to ``size``
-    seeds, in job order; every other job as it is. Records are the same either way: only the speed differs."""
+    seeds, and of a cost up to ``budget`` (at least one seed), in job order; every other job as it is. Records are
+    the same either way: only the speed differs."""
     groups: dict[RunConfig, list[Job]] = {}
     can: dict[RunConfig, bool] = {}
     out: list[Job] = []
@@ -145,8 +154,9 @@ def batched(jobs: list[Job], size: int = BATCH_SEEDS) -> list[Job]:
         else:
             out.append(job)
     for members in groups.values():
-        for first in range(0, len(members), size):
-            chunk = tuple(members[first:first + size])
+        seeds = max(1, int(min(size, budget / members[0].cost if members[0].cost > 0 else size)))
+        for first in range(0, len(members), seeds):
+            chunk = tuple(members[first:first + seeds])
             out.append(chunk[0] if len(chunk) == 1 else
                        Job(f"batch-{chunk[0].id}", "batch", chunk, sum(job.cost for job in chunk)))
     return out
