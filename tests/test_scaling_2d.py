@@ -1,0 +1,65 @@
+"""benchmarks/scaling_2d.py: the 2-D scaling study's section (table, findings, figure) from a results directory's
+metrics, on made-up metrics whose answers are known."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pandas as pd
+
+from conftest import BENCHMARKS_DIR
+
+
+def _script():
+    spec = importlib.util.spec_from_file_location("scaling_2d_script", BENCHMARKS_DIR / "scaling_2d.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _metrics(directory: Path) -> Path:
+    """Four conditions: three that learned (one without a plateau), one whose level stays below its start."""
+    rows = [  # shape, n_units, learner, runs, u_eq, plateau, final_ubar, std, u_0
+        ("chain-2", 2, "thermal", 16, 2.5, True, 2.4, 0.4, 0.3),
+        ("chain-3", 3, "thermal", 16, 9.9, False, 1.8, 1.6, 0.9),
+        ("sheet-2x2", 4, "thermal", 8, 1.5, True, 1.4, 0.8, -0.2),
+        ("sheet-16x16", 256, "thermal", 4, 0.15, True, 0.15, 0.05, 0.3),
+    ]
+    table = pd.DataFrame(rows, columns=["shape", "n_units", "learner", "runs", "u_eq", "plateau", "final_ubar",
+                                        "final_ubar_std", "u_0"])
+    table = table.assign(steps=300, steps_to_threshold=[15.0, float("nan"), 9.0, 0.0],
+                         steps_to_threshold_std=[18.0, float("nan"), 9.0, 0.0],
+                         reached_fraction=[1.0, float("nan"), 1.0, 1.0])
+    table.to_parquet(directory / "metrics.parquet")
+    return directory
+
+
+def test_the_section_says_which_assemblies_learned_and_how_fast(tmp_path):
+    script = _script()
+    metrics = script.read_metrics(_metrics(tmp_path))
+    rows = {line.split(" | ")[0].strip("| "): line for line in script.table(metrics)[2:]}
+    assert "| +2.50 | 4% | +0.30 | yes | 15 +- 18 | 100% |" in rows["chain-2"]  # SE 0.4 / 4 = 0.1, of 2.5
+    assert "+1.80 (final Ubar: no plateau)" in rows["chain-3"] and "| yes | - | - |" in rows["chain-3"]
+    assert "| +0.15 | 17% | +0.30 | no | - | - |" in rows["sheet-16x16"]  # below its start: its steps say nothing
+    findings = script.findings(metrics)
+    assert "- chains, thermal: U_eq +2.50 mm/cycle at N = 2, +1.80 at N = 3." in findings
+    assert "- sheets, thermal: U_eq +1.50 mm/cycle at N = 4, +0.15 at N = 256." in findings
+    assert any(line.endswith("(no gait learned in 300 steps): sheet-16x16 thermal.") for line in findings)
+    assert findings[-1] == "- Standard error under 10% of U_eq: 1 of 4 conditions (chain-2 thermal)."
+
+
+def test_the_command_rewrites_its_section_and_refuses_a_directory_without_metrics(tmp_path, capsys):
+    script = _script()
+    doc = tmp_path / "page.md"
+    doc.write_text(f"head\n{script.BEGIN}\nold\n{script.END}\ntail\n")
+    assert script.main([str(_metrics(tmp_path)), "--doc", str(doc)]) == 0
+    text = doc.read_text()
+    assert text.startswith(f"head\n{script.BEGIN}\n") and text.endswith(f"{script.END}\ntail\n")
+    assert "old" not in text and "| sheet-2x2 | 4 | thermal | 8 |" in text
+    assert "](media/scaling-2d.png)" in text and (tmp_path / "media" / "scaling-2d.png").is_file()
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert script.main([str(empty), "--doc", str(doc)]) == 2
+    assert f"{empty}: metrics.parquet: expected the results directory" in capsys.readouterr().err
+    assert doc.read_text() == text  # nothing written
