@@ -30,7 +30,7 @@ from morphbench.files import directory_lock
 
 BATCH_SEEDS = 112
 """seeds of a condition run together at most: a batch's step costs its Python once, whatever its size (28 chain-3
-seeds at a time cost 1.37x the CPU of 112: benchmarks/RESULTS.md)."""
+seeds at a time cost 1.36x the CPU of 112: benchmarks/RESULTS.md)."""
 JOBS_PER_WORKER = 4
 """a batch costs at most the suite's work to do over this many jobs per worker, so that the workers' loads stay even
 (a suite of one condition of 112 seeds on 2 workers runs as 8 batches)."""
