@@ -32,10 +32,10 @@ BATCH_SEEDS = 112
 """seeds of a condition run together at most: a batch's step costs its Python once, whatever its size (28 chain-3
 seeds at a time cost 1.36x the CPU of 112: benchmarks/RESULTS.md)."""
 JOBS_PER_WORKER = 4
-"""a batch costs at most the suite's work to do over this many jobs per worker, so that the workers' loads stay even
-(a suite of one condition of 112 seeds on 2 workers runs as 8 batches)."""
-UNKNOWN_WORKERS = 8
-"""the workers assumed of an executor that does not say (a Dask cluster)."""
+"""a batch costs at most the suite's work to do over this many jobs per worker of a local pool, so that the workers'
+loads stay even (a suite of one condition of 112 seeds on 2 workers runs as 8 batches). A Dask cluster does not say
+its workers: its batches are of BATCH_SEEDS (small tasks there let Dask blame a healthy task queued beside one that
+kills its worker: tests/test_bench_faults.py)."""
 
 
 @dataclass
@@ -66,9 +66,9 @@ def run_suite(suite: Suite, out: str | Path, executor=None, *, resume: bool = Fa
     reused. One process at a time writes ``out`` (``files.directory_lock``): another is refused. ``on_result(job,
     result)`` is called after each job is saved; an exception it raises (like Ctrl-C) stops the suite with every
     finished job saved and the rest cancelled. Seeds of a condition on the quasi-static chain model run together, up
-    to ``batch_seeds`` at a time (default BATCH_SEEDS; 1: each alone), a batch costing at most the work to do over
-    JOBS_PER_WORKER jobs per worker, with the same results; a batch whose worker dies is run again seed by seed, so
-    that only the seed that crashes fails.
+    to ``batch_seeds`` at a time (default BATCH_SEEDS; 1: each alone), on a local pool a batch costing at most the
+    work to do over JOBS_PER_WORKER jobs per worker, with the same results; a batch whose worker dies is run again
+    seed by seed, so that only the seed that crashes fails.
     """
     started, started_at = time.perf_counter(), time.time()
     executor = executor or LocalExecutor()
@@ -82,7 +82,8 @@ def run_suite(suite: Suite, out: str | Path, executor=None, *, resume: bool = Fa
         bar = _progress_bar(suite, todo, executor, progress)
         # longest first: the long runs start early and the short ones fill the gaps at the end (tables are in plan
         # order)
-        budget = sum(job.cost for job in todo) / (JOBS_PER_WORKER * getattr(executor, "workers", UNKNOWN_WORKERS))
+        workers = getattr(executor, "workers", None)
+        budget = sum(job.cost for job in todo) / (JOBS_PER_WORKER * workers) if workers else math.inf
         work = sorted(batched(todo, batch_seeds or BATCH_SEEDS, budget), key=lambda job: -job.cost)
         try:
             while work:
