@@ -45,29 +45,34 @@ def read_metrics(results: Path) -> pd.DataFrame:
                           "`morphbench bench benchmarks/scaling-2d.toml`")
     metrics = pd.read_parquet(path)
     metrics = metrics[metrics.learner.isin(LEARNERS)].assign(kind=metrics["shape"].str.split("-").str[0])
+    # a condition whose units discard each step's first cycles (its transient) is named for it beside the others
+    discarded = metrics.discard_cycles.map(lambda cycles: f" ({cycles} cycles discarded)" if cycles else "")
+    metrics["assembly"] = metrics["shape"] + discarded
+    metrics["series"] = metrics.kind + "s, " + metrics.learner + discarded
     # no plateau: the fit's U_eq would be an extrapolation, the final Ubar stands for it
     metrics["level"] = metrics.u_eq.where(metrics.plateau.astype(bool), metrics.final_ubar)
     metrics["se"] = metrics.final_ubar_std / metrics.runs.clip(lower=1) ** 0.5
     metrics["learned"] = metrics.level > metrics.u_0 + LEARNED_SE * metrics.se
-    return metrics.sort_values(["kind", "n_units", "learner"], ascending=[True, True, False])
+    return metrics.sort_values(["kind", "n_units", "discard_cycles", "learner"], ascending=[True, True, True, False])
 
 
 def figure(metrics: pd.DataFrame, path: Path) -> Path:
-    """U_eq, steps to 0.8 U_eq and the runs reaching it against N: one curve per kind of assembly and learner (the
-    learning time of a condition that learned nothing left out)."""
+    """U_eq, steps to 0.8 U_eq and the runs reaching it against N: one curve per kind of assembly, learner and
+    number of discarded cycles (the learning time of a condition that learned nothing left out)."""
     timed = metrics.assign(**{column: metrics[column].where(metrics.learned) for column in
                               ("steps_to_threshold", "steps_to_threshold_std", "reached_fraction")})
-    groups = [(f"{kind}s, {learner}", rows) for (kind, learner), rows in timed.groupby(["kind", "learner"])]
+    groups = [(series, rows) for series, rows in timed.groupby("series", sort=False)]
     return F.scaling("scaling-2d", groups, path)
 
 
 def table(metrics: pd.DataFrame) -> list[str]:
-    """The section's rows: one per shape and learner, chains then sheets, by the number of units."""
+    """The section's rows: one per shape, number of discarded cycles and learner, chains then sheets, by the number of
+    units."""
     lines = ["| assembly | N | learner | runs | U_eq (mm/cycle) | SE / U_eq | U_0 (the fit at step 0) | learned | "
              "steps to 0.8 U_eq | reaching it |", "|---|---|---|---|---|---|---|---|---|---|"]
     for row in metrics.itertuples():
         shown = row.learned and not math.isnan(row.reached_fraction)  # steps to a level below the start say nothing
-        lines.append(f"| {row.shape} | {row.n_units} | {row.learner} | {row.runs} | {row.level:+.2f}"
+        lines.append(f"| {row.assembly} | {row.n_units} | {row.learner} | {row.runs} | {row.level:+.2f}"
                      f"{'' if row.plateau else ' (final Ubar: no plateau)'} | {_ratio(row.se, row.level):.0%} | "
                      f"{row.u_0:+.2f} | {'yes' if row.learned else 'no'} | "
                      f"{_steps(row.steps_to_threshold, row.steps_to_threshold_std) if shown else '-'} | "
@@ -79,17 +84,20 @@ def findings(metrics: pd.DataFrame) -> list[str]:
     """What the table says, one line each: U_eq from the smallest to the largest assembly of each kind, which
     conditions learned nothing, and how many meet the standard-error target."""
     lines = []
-    for (kind, learner), rows in metrics.groupby(["kind", "learner"], sort=False):
+    for series, rows in metrics.groupby("series", sort=False):
         first, last = rows.iloc[0], rows.iloc[-1]
-        lines.append(f"- {kind}s, {learner}: U_eq {first.level:+.2f} mm/cycle at N = {first.n_units}, "
+        if len(rows) == 1:
+            lines.append(f"- {series}: U_eq {first.level:+.2f} mm/cycle at N = {first.n_units}.")
+            continue
+        lines.append(f"- {series}: U_eq {first.level:+.2f} mm/cycle at N = {first.n_units}, "
                      f"{last.level:+.2f} at N = {last.n_units}.")
     stuck = metrics[~metrics.learned]
     lines.append(f"- Not above their U_0 by {LEARNED_SE:g} standard errors (no gait learned in "
-                 f"{int(metrics.steps.max())} steps): " + (", ".join(f"{r.shape} {r.learner}" for r in
+                 f"{int(metrics.steps.max())} steps): " + (", ".join(f"{r.assembly} {r.learner}" for r in
                                                                  stuck.itertuples()) or "none") + ".")
     met = metrics[metrics.se < SE_TARGET * metrics.level.abs()]
     lines.append(f"- Standard error under {SE_TARGET:.0%} of U_eq: {len(met)} of {len(metrics)} conditions "
-                 f"({', '.join(f'{r.shape} {r.learner}' for r in met.itertuples()) or 'none'}).")
+                 f"({', '.join(f'{r.assembly} {r.learner}' for r in met.itertuples()) or 'none'}).")
     return lines
 
 

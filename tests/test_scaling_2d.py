@@ -19,18 +19,20 @@ def _script():
 
 
 def _metrics(directory: Path) -> Path:
-    """Four conditions: three that learned (one without a plateau), one whose level stays below its start."""
+    """Five conditions: three that learned (one without a plateau), one whose level stays below its start, and the
+    same sheet again with its units discarding 2 cycles of each step, which learned."""
     rows = [  # shape, n_units, learner, runs, u_eq, plateau, final_ubar, std, u_0
         ("chain-2", 2, "thermal", 16, 2.5, True, 2.4, 0.4, 0.3),
         ("chain-3", 3, "thermal", 16, 9.9, False, 1.8, 1.6, 0.9),
         ("sheet-2x2", 4, "thermal", 8, 1.5, True, 1.4, 0.8, -0.2),
         ("sheet-16x16", 256, "thermal", 4, 0.15, True, 0.15, 0.05, 0.3),
+        ("sheet-16x16", 256, "thermal", 4, 0.9, True, 0.9, 0.1, 0.2),
     ]
     table = pd.DataFrame(rows, columns=["shape", "n_units", "learner", "runs", "u_eq", "plateau", "final_ubar",
                                         "final_ubar_std", "u_0"])
-    table = table.assign(steps=300, steps_to_threshold=[15.0, float("nan"), 9.0, 0.0],
-                         steps_to_threshold_std=[18.0, float("nan"), 9.0, 0.0],
-                         reached_fraction=[1.0, float("nan"), 1.0, 1.0])
+    table = table.assign(steps=300, steps_to_threshold=[15.0, float("nan"), 9.0, 0.0, 40.0],
+                         steps_to_threshold_std=[18.0, float("nan"), 9.0, 0.0, 10.0],
+                         reached_fraction=[1.0, float("nan"), 1.0, 1.0, 0.75], discard_cycles=[0, 0, 0, 0, 2])
     table.to_parquet(directory / "metrics.parquet")
     return directory
 
@@ -42,11 +44,15 @@ def test_the_section_says_which_assemblies_learned_and_how_fast(tmp_path):
     assert "| +2.50 | 4% | +0.30 | yes | 15 +- 18 | 100% |" in rows["chain-2"]  # SE 0.4 / 4 = 0.1, of 2.5
     assert "+1.80 (final Ubar: no plateau)" in rows["chain-3"] and "| yes | - | - |" in rows["chain-3"]
     assert "| +0.15 | 17% | +0.30 | no | - | - |" in rows["sheet-16x16"]  # below its start: its steps say nothing
+    after = rows["sheet-16x16 (2 cycles discarded)"]  # the same sheet, named apart
+    assert "| 256 | thermal | 4 | +0.90 | 6% | +0.20 | yes | 40 +- 10 | 75% |" in after
     findings = script.findings(metrics)
     assert "- chains, thermal: U_eq +2.50 mm/cycle at N = 2, +1.80 at N = 3." in findings
     assert "- sheets, thermal: U_eq +1.50 mm/cycle at N = 4, +0.15 at N = 256." in findings
+    assert "- sheets, thermal (2 cycles discarded): U_eq +0.90 mm/cycle at N = 256." in findings
     assert any(line.endswith("(no gait learned in 300 steps): sheet-16x16 thermal.") for line in findings)
-    assert findings[-1] == "- Standard error under 10% of U_eq: 1 of 4 conditions (chain-2 thermal)."
+    assert findings[-1] == ("- Standard error under 10% of U_eq: 2 of 5 conditions (chain-2 thermal, "
+                           "sheet-16x16 (2 cycles discarded) thermal).")
 
 
 def test_the_command_rewrites_its_section_and_refuses_a_directory_without_metrics(tmp_path, capsys):
