@@ -4,12 +4,16 @@
                                                   # then square sheets of 100 to 10,000 units, 2 simulated s each
     python benchmarks/cost_per_unit.py --sheets-only --sheet-seconds 1
     python benchmarks/cost_per_unit.py --sheets-only --banded    # the sheets on the banded solver, up to 1,024 units
+    python benchmarks/cost_per_unit.py --breakdown               # where a tick of the sparse solver goes, per sheet
 
 Each row builds the shape, sets random phases (seed 0) and times ``advance`` over the simulated time (pressures,
 link forces or solves, friction; no sensing or learning), after a warm-up (a second, a quarter of the time for a
 sheet) that loads numba's cache. The sheets (no dummies, bellows along x and y) run on the default physics only, with
 the exponent of the cost against the number of units between each sheet and the one before, and from the first to
-the last. Prints Markdown tables for benchmarks/RESULTS.md.
+the last. ``--breakdown`` times, on each sheet, a tick (its Newton steps from the world's count) and, at one tick's
+state, the pieces a Newton step is made of: the residual with its gradient and Hessian blocks, the Newton system
+(assembled, factorised and solved) and its solve alone; what a tick costs beyond its Newton systems is what a faster
+linear solver could not remove. Prints Markdown tables for benchmarks/RESULTS.md.
 """
 
 from __future__ import annotations
@@ -51,6 +55,66 @@ def seconds_per_second(shape, physics, simulated: float, warm_up: float = 1.0, b
         return (time.perf_counter() - wall) / simulated, (time.process_time() - cpu) / simulated
 
 
+def _best(call, repeats: int = 5) -> float:
+    """Process seconds of the fastest of ``repeats`` calls."""
+    best = np.inf
+    for _ in range(repeats):
+        started = time.process_time()
+        call()
+        best = min(best, time.process_time() - started)
+    return best
+
+
+def breakdown(side: int, ticks: int) -> dict:
+    """CPU ms of a tick of a side x side sheet on the sparse path, its Newton steps, and at the state a tick starts
+    from: one residual evaluation, one Newton system (assembled, factorised, solved), its solve alone."""
+    from morphbench.physics import cholesky
+    from morphbench.physics import planar as P
+
+    shape = shape_of("sheet", side, side)
+    world = PlanarWorld(shape, DEFAULT_PHYSICS, sparse=True)
+    world.set_phases(np.random.default_rng(0).random(shape.n_units))
+    world.advance(world.ticks_in(0.5))  # moving, and numba's caches loaded
+    seen, solve = {}, world._solve
+
+    def capture(lengths, limits, *rest):
+        seen.setdefault("tick", (world.q.copy(), world._last.copy(), lengths[0].copy(), limits[0].copy()))
+        return solve(lengths, limits, *rest)
+
+    world._solve = capture
+    steps, started = world.newton_steps, time.process_time()
+    world.advance(ticks)
+    tick = (time.process_time() - started) / ticks
+    newton = (world.newton_steps - steps) / ticks
+    q, last, lengths, limits = seen["tick"]
+    n, links = len(q), len(world._front)
+    scale = np.ones(3 * n)
+    scale[2::3] = world._rho
+    work = P._workspace(n, links, True)
+    pattern = world._pattern
+    system = (pattern, np.zeros((len(pattern.rows), 3, 3)), np.empty(n, dtype=np.int64), np.empty((n, 3)))
+    springs, cap = world._springs(), shape.actuator.max_force
+    geometry = (world._front, world._rear, world._plane_axes, world.intact, springs)
+    z = last.ravel() * scale
+    top = P._step_size(q, *geometry, lengths, scale, work)
+    gamma = 1.0 / top
+    residual = _best(lambda: P._residual(q, z, scale, *geometry, cap, lengths, limits, gamma, work))
+    active = (work[4].reshape(n, 3) != 0.0).any(axis=1)
+    rest = np.where(np.repeat(active, 3), 0.0, -z)
+    dz = rest.copy()
+
+    def step():
+        dz[:] = rest
+        P._sparse_step(z, work, limits, gamma, 1e-9 * top, active, world._front, world._rear, world.intact, system,
+                       dz)
+
+    system_time = _best(step)
+    x = system[3].copy()
+    solve_time = _best(lambda: cholesky.solve(system[1], pattern.columns, pattern.rows, x.copy()))
+    return {"units": shape.n_units, "tick": tick * 1e3, "newton": newton, "residual": residual * 1e3,
+            "system": system_time * 1e3, "solve": solve_time * 1e3, "sliding": float(active.mean())}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per row")
@@ -59,8 +123,22 @@ def main() -> None:
     parser.add_argument("--banded", action="store_true", help="the sheets of up to 1,024 units on the planar "
                         "solver's banded path (what every shape had before the sparse one; beyond, its dense "
                         "Hessians take gigabytes)")
+    parser.add_argument("--breakdown", action="store_true", help="where a tick of the sparse solver goes, per sheet")
+    parser.add_argument("--ticks", type=int, default=24, help="ticks timed per sheet with --breakdown")
     args = parser.parse_args()
     print(f"# {time.strftime('%Y-%m-%d')} {platform.machine()}  python {platform.python_version()}")
+    if args.breakdown:
+        print("| square sheet | units | CPU ms per tick | Newton steps per tick | bodies sliding | residual, ms | "
+              "Newton system (assembled, factorised, solved), ms | its solve alone, ms | a tick beyond its Newton "
+              "systems, ms | that part, s per simulated s |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        for side in SHEETS:
+            row = breakdown(side, args.ticks)
+            beyond = row["tick"] - row["newton"] * row["system"]
+            print(f"| {side} x {side} | {row['units']} | {row['tick']:.1f} | {row['newton']:.1f} | "
+                  f"{row['sliding']:.0%} | {row['residual']:.2f} | {row['system']:.1f} | {row['solve']:.2f} | "
+                  f"{beyond:.1f} | {beyond / 1e3 / DEFAULT_PHYSICS.timestep:.2f} |", flush=True)
+        return
     if not args.sheets_only:
         print("| shape | units | bodies | default backend | default wall s per simulated s | "
               "PyBullet fast wall s per simulated s |")
