@@ -154,3 +154,17 @@ def test_a_mirrored_sheet_moves_as_the_mirror_image_on_the_sparse_path():
     assert np.abs(mirror[:, 0] - moved[:, 0]).max() < AGREE
     assert np.abs(mirror[:, 1] + moved[:, 1]).max() < AGREE
     assert np.abs(mirror[:, 2] + moved[:, 2]).max() < AGREE
+
+
+def test_the_tick_breakdown_measures_a_small_sheet():
+    """benchmarks/cost_per_unit.py --breakdown reaches into the solver's pieces: they still take what it gives."""
+    import importlib.util
+
+    from conftest import BENCHMARKS_DIR
+
+    spec = importlib.util.spec_from_file_location("cost_per_unit_script", BENCHMARKS_DIR / "cost_per_unit.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    row = script.breakdown(4, 3)
+    assert row["units"] == 16 and row["newton"] >= 1.0 and 0.0 < row["sliding"] <= 1.0
+    assert all(row[key] > 0.0 for key in ("tick", "residual", "system", "solve"))
