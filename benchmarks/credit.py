@@ -10,7 +10,8 @@ step_size) trial at once, the assembly runs two cycles, and the unit compares it
 remembers. It can credit the change to its own trial only as far as its own trial caused it. This measures that
 share directly, with no learner: from a base (random phases, settled for ``--settle`` cycles) the assembly's units
 take joint trials (each its own draw, the learners' step size) and measure the learning step's two cycles with the
-ideal sensor, as a run does; per unit, the squared correlation over the trials between its own trial and the change
+ideal sensor, as a run does, then ``--windows`` - 1 more windows of two cycles each (what a unit would measure had it
+waited that long); per unit and window, the squared correlation over the trials between its own trial and the change
 in its measured velocity from the base's is its own share r^2 (minus 1 / (trials - 1), what r^2 averages with no
 relation at all). The squared correlations of a unit with every unit's trial add up to at most 1; where every unit's
 velocity depends on the phases alike, a unit's own share is about 1 / N. For two units, whose velocities depend only
@@ -42,16 +43,14 @@ SHAPES = (("chain", ROOT / "shapes" / "chain-2.toml"), ("chain", ROOT / "shapes"
           ("sheet", ROOT / "benchmarks" / "shapes" / "sheet-4x4.toml"),
           ("sheet", ROOT / "benchmarks" / "shapes" / "sheet-8x8.toml"),
           ("sheet", ROOT / "benchmarks" / "shapes" / "sheet-16x16.toml"))
-WINDOWS = ("step", "steady")
-"""the two windows measured after a trial: the learning step's cycles, then as many more (the new phases' gait)."""
 MEASURED_CYCLES = 2
 """cycles a learning step measures, from its phase change (the paper's protocol, ``LearnerParams.cycles_per_step``)."""
 
 
-def step_velocities(shape, phases: np.ndarray, trial: np.ndarray, settle: int) -> np.ndarray:
-    """mm/cycle, (2, N): each unit's measured velocity over a learning step (a fresh world at ``phases``, settled for
-    ``settle`` cycles, then at ``phases + trial`` for MEASURED_CYCLES cycles, measured by the ideal sensor as in a
-    run), and over as many cycles after it (the new phases' gait once the step's transient is over)."""
+def step_velocities(shape, phases: np.ndarray, trial: np.ndarray, settle: int, windows: int = 2) -> np.ndarray:
+    """mm/cycle, (windows, N): each unit's measured velocity over a learning step (a fresh world at ``phases``, settled
+    for ``settle`` cycles, then at ``phases + trial`` for MEASURED_CYCLES cycles, measured by the ideal sensor as in a
+    run), and over each of the next ``windows`` - 1 stretches of as many cycles."""
     from morphbench.experiment.run import measure
     from morphbench.params import DEFAULT_PHYSICS, SensorParams
     from morphbench.physics import make_world
@@ -62,14 +61,14 @@ def step_velocities(shape, phases: np.ndarray, trial: np.ndarray, settle: int) -
         world.advance(world.ticks_in(settle * shape.actuator.cycle_time))
         world.set_phases(phases + trial)
         windows = [measure(world, [IdealSensor(shape.n_units, sample_period=SensorParams().sample_period)],
-                           MEASURED_CYCLES)[0] for _ in range(2)]
+                           MEASURED_CYCLES)[0] for _ in range(windows)]
     return np.array(windows) * 1000.0 / MEASURED_CYCLES
 
 
 def _job(args) -> np.ndarray:
-    path, phases, trial, settle = args
+    path, phases, trial, settle, windows = args
     from morphbench.shapes import load_shape
-    return step_velocities(load_shape(path), phases, trial, settle)
+    return step_velocities(load_shape(path), phases, trial, settle, windows)
 
 
 def plan(bases: int, trials: int, step_size: float, seed: int) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
@@ -99,14 +98,20 @@ def own_share(moves: np.ndarray, velocities: np.ndarray) -> np.ndarray:
     return r ** 2 - 1.0 / (len(trial) - 1)
 
 
-def measure_all(bases: int, trials: int, step_size: float, seed: int, settle: int, workers: int) -> list[dict]:
-    """One row per shape: its kind, name and N; per window (``step``: the learning step, ``steady``: the cycles after
-    it) the mean own share over its units and bases and its standard error over the bases; and the spread of the
-    units' velocity changes over the step (mm/cycle)."""
+def window_name(window: int) -> str:
+    """The cycles after the phase change a window measures: 'cycles 1-2' is the learning step's."""
+    return f"cycles {window * MEASURED_CYCLES + 1}-{(window + 1) * MEASURED_CYCLES}"
+
+
+def measure_all(bases: int, trials: int, step_size: float, seed: int, settle: int, windows: int,
+                workers: int) -> list[dict]:
+    """One row per shape: its kind, name and N; per window (0: the learning step) the mean own share over its units
+    and bases (``share``) and its standard error over the bases (``se``); and the spread of the units' velocity
+    changes over the step (mm/cycle)."""
     from morphbench.shapes import load_shape
 
     planned = plan(bases, trials, step_size, seed)
-    jobs = [(str(SHAPES[index][1]), phases + 0.0, move, settle)
+    jobs = [(str(SHAPES[index][1]), phases + 0.0, move, settle, windows)
             for index, _, phases, moves in planned for move in moves]
     # the largest shapes first, so that the pool's last jobs are short ones
     order = sorted(range(len(jobs)), key=lambda j: -len(jobs[j][1]))
@@ -120,44 +125,46 @@ def measure_all(bases: int, trials: int, step_size: float, seed: int, settle: in
         for _, _, _, moves in (p for p in planned if p[0] == index):
             velocities = np.array(results[at:at + len(moves)])  # (trials + 1, window, unit)
             at += len(moves)
-            shares.append([own_share(moves, velocities[:, window]).mean() for window in range(2)])
+            shares.append([own_share(moves, velocities[:, window]).mean() for window in range(windows)])
             spreads.append(float(np.std(velocities[1:, 0] - velocities[0, 0])))
+        shares = np.array(shares)  # (bases, windows)
         shape = load_shape(path)
-        row = {"kind": kind, "shape": shape.name, "n_units": shape.n_units, "spread": float(np.mean(spreads))}
-        for window, name in enumerate(WINDOWS):
-            values = np.array(shares)[:, window]
-            row[name] = float(values.mean())
-            row[f"{name}_se"] = float(values.std(ddof=1) / math.sqrt(len(values))) if len(values) > 1 else math.nan
-        rows.append(row)
+        rows.append({"kind": kind, "shape": shape.name, "n_units": shape.n_units, "spread": float(np.mean(spreads)),
+                     "share": shares.mean(axis=0),
+                     "se": shares.std(axis=0, ddof=1) / math.sqrt(len(shares)) if len(shares) > 1
+                     else np.full(windows, math.nan)})
     return rows
 
 
 def table(rows: list[dict], bases: int) -> list[str]:
-    lines = [f"| assembly | N | own share r^2, learning step (mean over units and {bases} bases, +- SE) | N x own "
-             "share | own share r^2, the next cycles (the new gait) | spread of a unit's velocity change over the "
-             "step (mm/cycle) |", "|---|---|---|---|---|---|"]
+    windows = len(rows[0]["share"])
+    lines = [f"| assembly | N | own share r^2 over the learning step, {window_name(0)} (mean over units and {bases} "
+             "bases, +- SE) | N x that share | " + " | ".join(f"own share, {window_name(w)}" for w in range(1, windows))
+             + " | spread of a unit's velocity change over the step (mm/cycle) |",
+             "|---|---|---|---|" + "---|" * (windows - 1) + "---|"]
     for row in rows:
-        lines.append(f"| {row['shape']} | {row['n_units']} | {row['step']:.3f} +- {row['step_se']:.3f} | "
-                     f"{row['n_units'] * row['step']:.2f} | {row['steady']:.3f} +- {row['steady_se']:.3f} | "
-                     f"{row['spread']:.2f} |")
+        cells = [f"{row['share'][w]:.3f} +- {row['se'][w]:.3f}" for w in range(windows)]
+        lines.append(f"| {row['shape']} | {row['n_units']} | {cells[0]} | {row['n_units'] * row['share'][0]:.2f} | "
+                     + "".join(f"{cell} | " for cell in cells[1:]) + f"{row['spread']:.2f} |")
     return lines
 
 
 def findings(rows: list[dict], trials: int) -> list[str]:
     lines = []
+    last_window = len(rows[0]["share"]) - 1
     for kind in ("chain", "sheet"):
         mine = [r for r in rows if r["kind"] == kind]
         if len(mine) > 1:
             first, last = mine[0], mine[-1]
-            slope = math.log(max(last["step"], 1e-6) / max(first["step"], 1e-6)) / math.log(
+            slope = math.log(max(last["share"][0], 1e-6) / max(first["share"][0], 1e-6)) / math.log(
                 last["n_units"] / first["n_units"])
-            lines.append(f"- {kind}s: a unit's own share of its learning step goes from {first['step']:.3f} at N = "
-                         f"{first['n_units']} to {last['step']:.3f} at N = {last['n_units']} (as N^{slope:.2f}; "
-                         f"1 / N would be N^-1); of the gait after it, from {first['steady']:.3f} to "
-                         f"{last['steady']:.3f}.")
+            lines.append(f"- {kind}s: a unit's own share of its learning step goes from {first['share'][0]:.3f} at "
+                         f"N = {first['n_units']} to {last['share'][0]:.3f} at N = {last['n_units']} (as "
+                         f"N^{slope:.2f}; 1 / N would be N^-1); of {window_name(last_window)} after its phase change, "
+                         f"from {first['share'][last_window]:.3f} to {last['share'][last_window]:.3f}.")
     floor = 1.0 / (trials - 1)
-    below = [f"{r['shape']} ({name})" for r in rows for name in WINDOWS
-             if r[name] < 2 * (r[f"{name}_se"] if not math.isnan(r[f"{name}_se"]) else floor)]
+    below = [f"{r['shape']} ({window_name(w)})" for r in rows for w in range(last_window + 1)
+             if r["share"][w] < 2 * (r["se"][w] if not math.isnan(r["se"][w]) else floor)]
     lines.append(f"- Not distinguishable from no share at all (below 2 SE): {', '.join(below) or 'none'}; with "
                  f"{trials} trials an unrelated unit's r^2 averages {floor:.3f}, subtracted above.")
     return lines
@@ -168,23 +175,27 @@ def figure(rows: list[dict], path: Path) -> Path:
 
     from morphbench import plots
 
-    fig, ax = plt.subplots(figsize=(6.5, 4))
-    for i, kind in enumerate(("chain", "sheet")):
+    windows = len(rows[0]["share"])
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    n_all = np.array([2.0, max(r["n_units"] for r in rows)])
+    for ax, kind in zip(axes, ("chain", "sheet")):
         mine = [r for r in rows if r["kind"] == kind]
         n = np.array([r["n_units"] for r in mine], dtype=float)
-        for name, style in zip(WINDOWS, ("o-", "s--")):
-            share = np.array([r[name] for r in mine])
-            se = np.nan_to_num(np.array([r[f"{name}_se"] for r in mine]))
-            ax.errorbar(n, np.maximum(share, 1e-4), yerr=se, fmt=style, color=f"C{i}", capsize=3,
-                        label=f"{kind}s, {'learning step' if name == 'step' else 'the gait after it'}")
-    n = np.array([2.0, max(r["n_units"] for r in rows)])
-    ax.plot(n, 1.0 / n, "k:", lw=1, label="1 / N")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("active units N")
-    ax.set_ylabel("own share r^2 of a unit's velocity change")
-    ax.set_title("what a unit's own trial explains of what it measures", fontsize="small")
-    ax.legend(fontsize="x-small")
+        for w in range(windows):
+            share = np.array([r["share"][w] for r in mine])
+            se = np.nan_to_num(np.array([r["se"][w] for r in mine]))
+            ax.errorbar(n, np.maximum(share, 1e-4), yerr=se, fmt="o-" if w == 0 else "s--", capsize=3,
+                        color=plt.cm.viridis(w / max(1, windows - 1) * 0.85),
+                        label=f"{window_name(w)}{' (the learning step)' if w == 0 else ''}")
+        ax.plot(n_all, 1.0 / n_all, "k:", lw=1, label="1 / N")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("active units N")
+        ax.set_title(f"{kind}s", fontsize="small")
+        ax.legend(fontsize="x-small")
+    axes[0].set_ylabel("own share r^2 of a unit's velocity change")
+    fig.suptitle("what a unit's own trial explains of what it measures, by the cycles after its phase change",
+                 fontsize="small")
     return plots.save_figure(fig, path, dpi=110)
 
 
@@ -196,25 +207,28 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--bases", type=int, default=6, help="random base phases per shape (default 6)")
     parser.add_argument("--trials", type=int, default=64, help="joint trials per base (default 64)")
     parser.add_argument("--settle", type=int, default=2, help="cycles at the base before a trial (default 2)")
+    parser.add_argument("--windows", type=int, default=4, help="windows of 2 cycles measured after a trial, the "
+                        "learning step's first (default 4)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--doc", default=str(DOC), help="the page whose generated section is rewritten")
     args = parser.parse_args(argv)
-    if args.bases < 1 or args.trials < 3 or args.settle < 0 or args.workers < 1:
-        parser.error("--bases >= 1, --trials >= 3, --settle >= 0 and --workers >= 1 are needed")
+    if args.bases < 1 or args.trials < 3 or args.settle < 0 or args.windows < 1 or args.workers < 1:
+        parser.error("--bases >= 1, --trials >= 3, --settle >= 0, --windows >= 1 and --workers >= 1 are needed")
     step_size = LearnerParams().step_size
     page = Path(args.doc)
     if not page.is_file() or any(marker not in page.read_text(encoding="utf-8") for marker in (BEGIN, END)):
         print(f"credit.py: error: {page}: expected the generated-section markers {BEGIN} and {END}", file=sys.stderr)
         return 2  # found out before measuring; the page is left as it was
     started = time.perf_counter()
-    rows = measure_all(args.bases, args.trials, step_size, args.seed, args.settle, args.workers)
+    rows = measure_all(args.bases, args.trials, step_size, args.seed, args.settle, args.windows, args.workers)
     lines = table(rows, args.bases) + [""] + findings(rows, args.trials)
     drawn = figure(rows, Path(args.doc).parent / "media" / "credit.png")
     section = "\n".join(["", "", f"![a unit's own share against N](media/{drawn.name})", "", *lines, "",
                          f"Generated by `python benchmarks/credit.py --bases {args.bases} --trials {args.trials} "
-                         f"--settle {args.settle} --seed {args.seed}` on {time.strftime('%Y-%m-%d')} (step size "
-                         f"{step_size:g} cycles, {MEASURED_CYCLES} measured cycles, ideal sensor, default "
+                         f"--settle {args.settle} --windows {args.windows} --seed {args.seed}` on "
+                         f"{time.strftime('%Y-%m-%d')} (step size {step_size:g} cycles, windows of {MEASURED_CYCLES} "
+                         "cycles, ideal sensor, default "
                          f"physics; {time.perf_counter() - started:.0f} s with {args.workers} workers).", "", ""])
     replace_section(args.doc, BEGIN, END, section)
     print("\n".join(lines))
