@@ -18,9 +18,15 @@ def _script():
     return module
 
 
+GAINS = [(2.0, 2.2), (1.0, 1.4), (1.5, 1.7), (-0.1, 0.0), (0.05, 0.25)]
+"""each condition's runs' gains (final true Ubar less step 1's, mm/cycle): means 2.1, 1.2, 1.6, -0.05 and 0.15, with
+standard errors 0.1, 0.2, 0.1, 0.05 and 0.1."""
+
+
 def _metrics(directory: Path) -> Path:
-    """Five conditions: three that learned (one without a plateau), one whose level stays below its start, and the
-    same sheet again with its units discarding 2 cycles of each step, which learned."""
+    """Five conditions: three that learned (one without a plateau), one whose runs end below their start, and the
+    same sheet again with its units discarding 2 cycles of each step, whose fit ends far above the fit's start U_0
+    but whose runs gain less than 2 standard errors: it learned nothing."""
     rows = [  # shape, n_units, learner, runs, u_eq, plateau, final_ubar, std, u_0
         ("chain-2", 2, "thermal", 16, 2.5, True, 2.4, 0.4, 0.3),
         ("chain-3", 3, "thermal", 16, 9.9, False, 1.8, 1.6, 0.9),
@@ -32,8 +38,19 @@ def _metrics(directory: Path) -> Path:
                                         "final_ubar_std", "u_0"])
     table = table.assign(steps=300, steps_to_threshold=[15.0, float("nan"), 9.0, 0.0, 40.0],
                          steps_to_threshold_std=[18.0, float("nan"), 9.0, 0.0, 10.0],
-                         reached_fraction=[1.0, float("nan"), 1.0, 1.0, 0.75], discard_cycles=[0, 0, 0, 0, 2])
+                         reached_fraction=[1.0, float("nan"), 1.0, 1.0, 0.75], discard_cycles=[0, 0, 0, 0, 2],
+                         condition_id=[f"c{i}" for i in range(len(rows))])
     table.to_parquet(directory / "metrics.parquet")
+    runs = [(f"c{i}-{j}", f"c{i}", 0.3 + j, 0.3 + j + gain) for i, pair in enumerate(GAINS)
+            for j, gain in enumerate(pair)]
+    runs.append(("failed", "c0", 0.0, float("nan")))  # a failed run counts for nothing
+    pd.DataFrame({"run_id": [r[0] for r in runs], "condition_id": [r[1] for r in runs],
+                  "status": ["done"] * (len(runs) - 1) + ["failed"],
+                  "final_ubar_true": [r[3] for r in runs]}).to_parquet(directory / "runs.parquet")
+    # a run's gain counts from step 1, measured as the later steps are; step 0 (no phase change before it) is not it
+    steps = [(run_id, step, value) for run_id, _, start, _ in runs
+             for step, value in ((0, start + 5.0), (1, start), (2, start + 1.0))]
+    pd.DataFrame(steps, columns=["run_id", "step", "ubar_true"]).to_parquet(directory / "steps.parquet")
     return directory
 
 
@@ -41,16 +58,17 @@ def test_the_section_says_which_assemblies_learned_and_how_fast(tmp_path):
     script = _script()
     metrics = script.read_metrics(_metrics(tmp_path))
     rows = {line.split(" | ")[0].strip("| "): line for line in script.table(metrics)[2:]}
-    assert "| +2.50 | 4% | +0.30 | yes | 15 +- 18 | 100% |" in rows["chain-2"]  # SE 0.4 / 4 = 0.1, of 2.5
+    assert "| +2.50 | 4% | +2.10 +- 0.10 | yes | 15 +- 18 | 100% |" in rows["chain-2"]  # SE 0.4 / 4 = 0.1, of 2.5
     assert "+1.80 (final Ubar: no plateau)" in rows["chain-3"] and "| yes | - | - |" in rows["chain-3"]
-    assert "| +0.15 | 17% | +0.30 | no | - | - |" in rows["sheet-16x16"]  # below its start: its steps say nothing
-    after = rows["sheet-16x16 (2 cycles discarded)"]  # the same sheet, named apart
-    assert "| 256 | thermal | 4 | +0.90 | 6% | +0.20 | yes | 40 +- 10 | 75% |" in after
+    assert "| +0.15 | 17% | -0.05 +- 0.05 | no | - | - |" in rows["sheet-16x16"]  # below its start: no steps
+    after = rows["sheet-16x16 (2 cycles discarded)"]  # the same sheet, named apart; U_eq 0.9 against U_0 0.2, but
+    assert "| 256 | thermal | 4 | +0.90 | 6% | +0.15 +- 0.10 | no | - | - |" in after  # its runs gained < 2 SE
     findings = script.findings(metrics)
     assert "- chains, thermal: U_eq +2.50 mm/cycle at N = 2, +1.80 at N = 3." in findings
     assert "- sheets, thermal: U_eq +1.50 mm/cycle at N = 4, +0.15 at N = 256." in findings
     assert "- sheets, thermal (2 cycles discarded): U_eq +0.90 mm/cycle at N = 256." in findings
-    assert any(line.endswith("(no gait learned in 300 steps): sheet-16x16 thermal.") for line in findings)
+    assert any(line.endswith("(no gait learned in 300 steps): sheet-16x16 thermal, sheet-16x16 (2 cycles discarded) "
+                             "thermal.") for line in findings)
     assert findings[-1] == ("- Standard error under 10% of U_eq: 2 of 5 conditions (chain-2 thermal, "
                            "sheet-16x16 (2 cycles discarded) thermal).")
 

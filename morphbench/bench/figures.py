@@ -23,6 +23,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib import ticker  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
@@ -162,6 +163,9 @@ def scaling(name: str, groups: list[tuple[str | None, pd.DataFrame]], path: Path
         ax.set_xlabel("active units N")
         if sizes.max() > LOG_N_FROM * sizes.min():
             ax.set_xscale("log")
+            # plain numbers at the decades only: over less than two decades the default labels every minor tick
+            ax.xaxis.set_major_formatter(ticker.ScalarFormatter())
+            ax.xaxis.set_minor_formatter(ticker.NullFormatter())
     if any(label for label, _ in groups):
         ax_u.legend(fontsize="x-small")
     fig.suptitle(f"{name}: scaling with the number of units")
