@@ -201,6 +201,8 @@ class DaskExecutor:
 
     def __init__(self, scheduler: Any, timeout: float = 20.0):
         self.scheduler, self.timeout = scheduler, timeout
+        self._workers = 0
+        """the most workers the cluster has had at the start of a round."""
 
     def describe(self) -> str:
         address = getattr(self.scheduler, "scheduler", None)
@@ -216,6 +218,7 @@ class DaskExecutor:
         client = connect(self.scheduler, self.timeout) if own else self.scheduler
         futures = []
         try:
+            self._wait_for_workers(client, distributed)
             futures = [client.submit(fn, job, pure=False) for job in jobs]
             by_key = {f.key: job for f, job in zip(futures, jobs)}
             for future in distributed.as_completed(futures):
@@ -238,6 +241,17 @@ class DaskExecutor:
                     pass
             if own:
                 client.close()
+
+
+    def _wait_for_workers(self, client, distributed) -> None:
+        """Wait (up to ``timeout``) for as many workers as the cluster had before: after a job took a worker down, its
+        nanny restarts it, and the next round (the runs of a batch that died, one by one) would otherwise queue on
+        the survivors, where the run that kills a worker again takes the healthy runs queued beside it down too."""
+        self._workers = max(self._workers, len(client.scheduler_info().get("workers", {})))
+        try:
+            client.wait_for_workers(self._workers, timeout=self.timeout)
+        except (distributed.TimeoutError, TimeoutError):  # a worker that does not come back: run on those there are
+            pass
 
 
 def import_dask():
