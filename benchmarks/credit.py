@@ -60,9 +60,9 @@ def step_velocities(shape, phases: np.ndarray, trial: np.ndarray, settle: int, w
         world.set_phases(phases)
         world.advance(world.ticks_in(settle * shape.actuator.cycle_time))
         world.set_phases(phases + trial)
-        windows = [measure(world, [IdealSensor(shape.n_units, sample_period=SensorParams().sample_period)],
-                           MEASURED_CYCLES)[0] for _ in range(windows)]
-    return np.array(windows) * 1000.0 / MEASURED_CYCLES
+        measured = [measure(world, [IdealSensor(shape.n_units, sample_period=SensorParams().sample_period)],
+                            MEASURED_CYCLES)[0] for _ in range(windows)]
+    return np.array(measured) * 1000.0 / MEASURED_CYCLES
 
 
 def _job(args) -> np.ndarray:

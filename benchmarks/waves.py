@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
     from morphbench.files import check_section, write_section
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--resolution", type=int, default=20, help="wave steps delta per direction (default 20)")
+    parser.add_argument("--resolution", type=int, default=20, help="wave lags delta in [0, 1) (default 20)")
     parser.add_argument("--samples", type=int, default=16, help="random phase vectors per sheet (default 16)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=1)

@@ -299,12 +299,13 @@ def read_toml_with_text(path: Path, what: str) -> tuple[dict[str, Any], str]:
                           "TOML nested less deeply (arrays or inline tables thousands deep)") from None
 
 
-def check_section(path: str | os.PathLike, begin: str, end: str) -> None:
-    """A ConfigError naming the file unless it holds both markers of a generated section (checked before a script
-    spends minutes measuring what it would write there)."""
+def check_section(path: str | os.PathLike, begin: str, end: str) -> str:
+    """The text of ``path``; a ConfigError naming the file unless it holds both markers of a generated section (a
+    script checks before it spends minutes measuring what it would write there)."""
     text = Path(path).read_text(encoding="utf-8") if Path(path).is_file() else ""
     if begin not in text or end not in text:
         raise ConfigError(path, "(file)", f"the generated-section markers {begin} and {end}")
+    return text
 
 
 def write_section(path: str | os.PathLike, begin: str, end: str, lines: list[str], footer: str) -> Path:
@@ -316,7 +317,5 @@ def write_section(path: str | os.PathLike, begin: str, end: str, lines: list[str
 def replace_section(path: str | os.PathLike, begin: str, end: str, section: str) -> Path:
     """Rewrite, atomically, the text between the markers ``begin`` and ``end`` of ``path`` (a document's generated
     section; the markers and the rest are kept); a ConfigError naming the file if a marker is missing."""
-    check_section(path, begin, end)
-    text = Path(path).read_text(encoding="utf-8")
-    head, rest = text.split(begin, 1)
+    head, rest = check_section(path, begin, end).split(begin, 1)
     return write_text(path, head + begin + section + end + rest.split(end, 1)[1])

@@ -242,7 +242,6 @@ class DaskExecutor:
             if own:
                 client.close()
 
-
     def _wait_for_workers(self, client, distributed) -> None:
         """Wait (up to ``timeout``) for as many workers as the cluster had before: after a job took a worker down, its
         nanny restarts it, and the next round (the runs of a batch that died, one by one) would otherwise queue on
