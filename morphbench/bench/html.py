@@ -7,7 +7,8 @@
 - at the top, the contents: every section of the report (each experiment, with its subsections and its video) and
   the two below, as links to their anchors;
 - in each experiment's section, a short H.264 video of one of its runs (``morphbench.bench.videos``), inlined as a
-  ``data:video/mp4;base64`` URI (the same file is in ``DIR/videos/``); a replay that fails says so in its place;
+  ``data:video/mp4;base64`` URI (the same file is in ``DIR/videos/``); a replay that fails says so in its place.
+  ``build_report`` has them rendered in a process of their own (``start_videos``) while it writes report.md;
 - at the end, the suite file the results came from (``DIR/suite.toml``, verbatim) and the versions: of the software
   at report time, and what the results directory itself records of the runs' environment.
 
@@ -22,9 +23,11 @@ import base64
 import html
 import json
 import mimetypes
+import multiprocessing
 import os
 import re
 import time
+from concurrent.futures import Future, ProcessPoolExecutor
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
@@ -37,17 +40,26 @@ from morphbench.files import write_text
 SUITE_ANCHOR, VERSIONS_ANCHOR = "suite-file", "versions"
 
 
-def write_html(root: str | Path, videos: bool = True) -> Path:
+def start_videos(root: str | Path) -> Future:
+    """The videos ``write_html`` shows, rendered (or reused) in a process of their own from now on: ``build_report``
+    writes report.md meanwhile, which takes about as long, on the machine's other core."""
+    pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
+    future = pool.submit(_videos, Path(root), json.loads((Path(root) / "plan.json").read_text()))
+    pool.shutdown(wait=False)  # the process ends once the videos are done
+    return future
+
+
+def write_html(root: str | Path, videos: bool | Future = True) -> Path:
     """Write ``root/report.html`` from ``root/report.md`` (see the module doc); with ``videos``, render (or reuse)
-    one video per experiment first. Returns the page's path."""
+    one video per experiment first, or take those ``start_videos`` renders. Returns the page's path."""
     root = Path(root)
     plan = json.loads((root / "plan.json").read_text())
-    started, failure = time.perf_counter(), None
+    failure = None
     try:
-        clips = _videos(root, plan) if videos else None
+        clips = (videos.result() if isinstance(videos, Future) else _videos(root, plan)) if videos else None
     except Exception as exc:  # the videos are optional: the page goes on without them
         clips, failure = None, describe(exc)
-    note = _video_note(clips, time.perf_counter() - started, failure)
+    note = _video_note(clips, failure)
     md = MarkdownIt("commonmark", {"html": False}).enable("table")
     tokens = md.parse((root / "report.md").read_text(encoding="utf-8"))
     _inline_sources(tokens, root)
@@ -230,7 +242,7 @@ def _tree(entries) -> str:
     return "".join(out)
 
 
-def _video_note(clips, seconds: float, failure: str | None = None) -> str:
+def _video_note(clips, failure: str | None = None) -> str:
     if failure is not None:
         return f'<p class="note">No videos: rendering them failed ({html.escape(failure)}).</p>'
     if clips is None:
@@ -238,6 +250,7 @@ def _video_note(clips, seconds: float, failure: str | None = None) -> str:
     made = [c for c in clips if c.path is not None and not c.reused]
     reused = [c for c in clips if c.reused]
     failed = [c for c in clips if c.path is None]
+    seconds = sum(c.wall_time_s for c in made)
     parts = [f"{len(made)} rendered in {seconds:.1f} s" if made else "", f"{len(reused)} reused" if reused else "",
              f"{len(failed)} missing" if failed else ""]
     text = ", ".join(p for p in parts if p) or "none"

@@ -342,6 +342,8 @@ def event_recovery(steps: pd.DataFrame, column: str = "ubar_true", fraction: flo
                "recovered_fraction"]
     if steps.empty or "event" not in steps:
         return pd.DataFrame(columns=columns)
+    marked = steps.event.notna() & steps.event.ne("")
+    steps = steps[steps.run_id.isin(steps.run_id[marked].unique())]  # only runs with events: the loop costs per run
     found: dict[tuple, dict[str, list]] = {}
     for (condition_id, _), run in steps.groupby(["condition_id", "run_id"], sort=False):
         run = run.sort_values("step")

@@ -44,7 +44,7 @@ from morphbench.bench import backends as B  # noqa: E402
 from morphbench.bench import claims as C  # noqa: E402
 from morphbench.bench import figures as F  # noqa: E402
 from morphbench.bench import metrics as M  # noqa: E402
-from morphbench.bench.html import write_html  # noqa: E402
+from morphbench.bench.html import start_videos, write_html  # noqa: E402
 from morphbench.bench.store import DAMAGED, Store  # noqa: E402
 from morphbench.files import write_text  # noqa: E402
 
@@ -66,6 +66,7 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None,
     metrics = M.condition_metrics(steps, runs, scans)
     store.write_table("curves", curves)
     store.write_table("metrics", metrics)
+    videos = start_videos(store.root) if videos else False  # rendered while the report is written
     figures = store.root / "figures"
     figures.mkdir(exist_ok=True)
     for old in figures.glob("*.png"):

@@ -120,13 +120,12 @@ def render_videos(root: str | Path, plan: dict | None = None, params: VideoParam
             videos.append(Video(name, error="no run of this experiment has finished"))
             continue
         video = Video(name, run_id=entry["id"], seed=entry["seed"], label=label(entry["condition"], varying[name]))
-        videos.append(_render_one(root, folder, video, params, seconds))
+        videos.append(_render_one(store, folder, video, params, seconds))
     return videos
 
 
-def _render_one(root: Path, folder: Path, video: Video, params: VideoParams, seconds: float) -> Video:
+def _render_one(store: Store, folder: Path, video: Video, params: VideoParams, seconds: float) -> Video:
     name = video.experiment
-    store = Store(root)
     out, record = folder / f"{name}.mp4", folder / f"{name}.json"
     started = time.perf_counter()
     try:
