@@ -154,11 +154,9 @@ class RunRecords:
 
     def _tables(self) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
         """The units, steps and pieces tables, built once for the steps recorded so far: a finished run's summary
-        and files read each of them several times (building them again was a third of a short run's cost)."""
+        and files read each of them several times."""
         if self._built is None or self._built[0] != self.n_steps:
-            units = self._units_table()
-            self._built = (self.n_steps, units, self._steps_table(units),
-                           self._scored(units, ["step", "piece"])[list(PIECE_COLUMNS)])
+            self._built = (self.n_steps, self._units_table(), self._steps_table(), self._pieces_table())
         return self._built[1:]
 
     def _units_table(self) -> pd.DataFrame:
@@ -172,42 +170,44 @@ class RunRecords:
                              **{name: self.rows.of(self.run, name).ravel() for name in STORED_COLUMNS}},
                             columns=UNIT_COLUMNS)
 
-    def _steps_table(self, units: pd.DataFrame) -> pd.DataFrame:
-        table = pd.DataFrame({"step": self.rows.of(self.run, "step"), "time_s": self.rows.of(self.run, "time_s")})
-        table = table.merge(self._scored(units, ["step"]), on="step", how="left")
-        table["event"] = list(self.rows.of(self.run, "event"))
-        table = table.merge(self._track(units, table.time_s.to_numpy()), on="step", how="left")
-        return table[list(STEP_COLUMNS)]
+    def _of(self, name: str) -> np.ndarray:
+        return self.rows.of(self.run, name)
 
-    def _track(self, units: pd.DataFrame, time_s: np.ndarray) -> pd.DataFrame:
-        """Per step (``time_s`` in step order), the assembly's centroid, heading and velocity along it (see the
-        module docstring)."""
-        angle = units.heading_rad.to_numpy(dtype=float)
-        track = (units.assign(cos=np.cos(angle), sin=np.sin(angle))
-                 .groupby("step", sort=True)[["x_m", "y_m", "cos", "sin"]].mean().reset_index())
+    def _living(self) -> np.ndarray:
+        """(rows, units): the units scored at each step, those not dead (a dead unit measures NaN)."""
+        return ~np.isnan(self._of("u_measured"))
+
+    def _steps_table(self) -> pd.DataFrame:
+        if not self.n_steps:
+            return pd.DataFrame(columns=STEP_COLUMNS)
+        scored = self._of("u_measured"), self._of("u_true"), self._of("accepted").astype(float)
+        (ubar, ubar_true, acceptance), _ = group_means(scored, np.where(self._living(), 0, -1), 1)
+        angle = self._of("heading_rad")
+        (x, y, cos, sin), _ = group_means((self._of("x_m"), self._of("y_m"), np.cos(angle), np.sin(angle)),
+                                          np.zeros(angle.shape, dtype=np.int64), 1)
+        time_s = self._of("time_s")
         h_x, h_y, _ = self.config.shape.heading
         if np.hypot(h_x, h_y) < NO_GROUND_HEADING:
-            heading = np.full(len(track), np.nan)
+            heading = np.full(len(time_s), np.nan)
         else:
-            heading = np.unwrap(np.arctan2(h_y, h_x) + np.arctan2(track.sin.to_numpy(), track.cos.to_numpy()))
+            heading = np.unwrap(np.arctan2(h_y, h_x) + np.arctan2(sin[:, 0], cos[:, 0]))
         cycles = np.diff(time_s) / self.config.shape.actuator.cycle_time
-        dx, dy = np.diff(track.x_m.to_numpy()), np.diff(track.y_m.to_numpy())
-        along = dx * np.cos(heading[:-1]) + dy * np.sin(heading[:-1])
-        track["heading_rad"] = heading
-        track["u_heading"] = np.nan  # at step 0: no previous step
-        track.loc[1:, "u_heading"] = 1000.0 * along / cycles
-        return track[["step", "x_m", "y_m", "heading_rad", "u_heading"]]
+        along = np.diff(x[:, 0]) * np.cos(heading[:-1]) + np.diff(y[:, 0]) * np.sin(heading[:-1])
+        u_heading = np.concatenate([[np.nan], 1000.0 * along / cycles])  # at step 0: no previous step
+        return pd.DataFrame({"step": self._of("step"), "time_s": time_s, "ubar": ubar[:, 0],
+                             "ubar_true": ubar_true[:, 0], "acceptance": acceptance[:, 0],
+                             "event": list(self._of("event")), "x_m": x[:, 0], "y_m": y[:, 0],
+                             "heading_rad": heading, "u_heading": u_heading}, columns=STEP_COLUMNS)
 
-    @staticmethod
-    def _scored(units: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
-        living = units[units.u_measured.notna()]
-        grouped = living.groupby(keys, sort=True)
-        return pd.DataFrame({
-            "n_units": grouped.size(),
-            "ubar": grouped.u_measured.mean(),
-            "ubar_true": grouped.u_true.mean(),
-            "acceptance": grouped.accepted.mean().astype(float),
-        }).reset_index()
+    def _pieces_table(self) -> pd.DataFrame:
+        if not self.n_steps:
+            return pd.DataFrame(columns=PIECE_COLUMNS)
+        names, piece = np.unique(self._of("piece"), return_inverse=True)
+        piece = np.where(self._living(), piece.reshape(self._of("piece").shape), -1)
+        (ubar, ubar_true), sizes = group_means((self._of("u_measured"), self._of("u_true")), piece, len(names))
+        row, which = np.nonzero(sizes)  # by step, then piece: the rows of a groupby of both, sorted
+        return pd.DataFrame({"step": self._of("step")[row], "piece": names[which], "n_units": sizes[row, which],
+                             "ubar": ubar[row, which], "ubar_true": ubar_true[row, which]}, columns=PIECE_COLUMNS)
 
     def summary(self) -> dict[str, Any]:
         """Configuration, seed and the run's headline figures."""
@@ -253,6 +253,56 @@ class RunRecords:
                 more(directory)
 
         return replace_directory(out_dir, write_all)
+
+
+def group_means(values: tuple[np.ndarray, ...], groups: np.ndarray, n_groups: int
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Per row and group, the means of each of ``values`` (arrays (rows, units)) over the entries of that group
+    (``groups``, (rows, units): 0 .. n_groups - 1, or -1 for none), NaN entries left out, NaN where none is left:
+    (len(values), rows, n_groups); and each group's size (rows, n_groups), NaN entries counted.
+
+    Summed as a pandas (3) groupby of the rows sums them, so that the tables stay bit for bit those of the versions
+    that built them with pandas (tests/test_records.py): the entries in row order, by ``np.add.reduceat`` when they
+    come sorted by row and group and none is NaN, else with Kahan's compensation; without the cost of pandas'
+    groupbys and merges, which was most of a short run's cost beyond its physics."""
+    groups = np.asarray(groups, dtype=np.int64)
+    member = groups >= 0
+    label = (np.arange(len(groups))[:, None] * n_groups + groups)[member]  # the entries' groups, in row order
+    sizes = np.bincount(label, minlength=len(groups) * n_groups).reshape(len(groups), n_groups)
+    starts = np.flatnonzero(np.r_[True, label[1:] != label[:-1]]) if len(label) else label
+    in_order = bool(np.all(label[1:] >= label[:-1]))
+    means = np.full((len(values), len(groups), n_groups), np.nan)
+    for column, value in enumerate(values):
+        value = np.asarray(value, dtype=float)
+        entries = value[member]
+        if not len(entries):
+            continue
+        if in_order and not np.isnan(entries).any():
+            present = label[starts]
+            means[column].reshape(-1)[present] = np.add.reduceat(entries, starts) / sizes.reshape(-1)[present]
+        else:
+            means[column] = _compensated_means(value, groups, n_groups)
+    return means, sizes
+
+
+def _compensated_means(values: np.ndarray, groups: np.ndarray, n_groups: int) -> np.ndarray:
+    """``group_means`` of one array by Kahan's compensated sum, as pandas' grouped mean (an infinite value resets
+    the compensation rather than making it NaN): unit by unit, over every row at once (each row's sequence of
+    operations is the scalar algorithm's)."""
+    rows = np.arange(len(values))
+    total, compensation = np.zeros((len(values), n_groups)), np.zeros((len(values), n_groups))
+    counts = np.zeros((len(values), n_groups), dtype=np.int64)
+    with np.errstate(invalid="ignore"):
+        for value, group in zip(values.T, groups.T):
+            take = (group >= 0) & ~np.isnan(value)
+            at = rows[take], group[take]
+            y = value[take] - compensation[at]
+            t = total[at] + y
+            lost = t - total[at] - y
+            compensation[at] = np.where(np.isnan(lost), 0.0, lost)
+            total[at] = t
+            counts[at] += 1
+    return np.where(counts > 0, total / np.maximum(counts, 1), np.nan)
 
 
 def final_steps(n_learning: int) -> int:
