@@ -97,3 +97,37 @@ def test_the_claims_page_lists_exactly_the_verdicts_that_differ(two_backends):
     claims_table = text.split("verdicts differ:")[1].split("Condition by condition")[0]
     listed = [line.split(" | ")[0][2:] for line in claims_table.splitlines()[3:] if line.startswith("| ")]
     assert listed == differ
+
+
+def test_the_paper_claims_sections_count_as_the_report_and_list_what_fails(two_backends, tmp_path, monkeypatch):
+    """benchmarks/paper_claims.py: the count the report gives, the claims that do not hold, written between the
+    markers of both pages (a page without them refused before anything is measured)."""
+    import importlib.util
+    from pathlib import Path
+
+    from morphbench.bench.report import claims_of
+    from morphbench.errors import ConfigError
+
+    spec = importlib.util.spec_from_file_location(
+        "paper_claims", Path(__file__).resolve().parents[1] / "benchmarks" / "paper_claims.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    results = two_backends[0]
+    verdicts = claims_of(results)
+    held = sum(v.holds is True for v in verdicts)
+    assert f"{held} of {len(verdicts)} claims hold" in (results / "report.md").read_text()
+    assert module.counts(verdicts).startswith(f"{held} of the {len(verdicts)} claims hold")
+    pages = {name: tmp_path / f"{name}.md" for name in ("paper", "calibration")}
+    for name, markers in (("paper", module.STANDS), ("calibration", module.FAILING)):
+        pages[name].write_text(f"# {name}\n\n{markers[0]}\nstale text\n{markers[1]}\n\nkept\n")
+    monkeypatch.setattr(module, "PAPER", pages["paper"])
+    monkeypatch.setattr(module, "CALIBRATION", pages["calibration"])
+    assert module.main([str(results)]) == 0
+    table = pages["calibration"].read_text()
+    listed = [line.split(" | ")[0][2:] for line in table.splitlines() if line.startswith("| ") and "---" not in line]
+    assert listed[1:] == [v.claim.id for v in verdicts if v.holds is not True]
+    assert "stale text" not in table and table.endswith("\nkept\n") and module.counts(verdicts) in table
+    assert module.counts(verdicts) in pages["paper"].read_text()
+    pages["paper"].write_text("# no markers\n")
+    with pytest.raises(ConfigError, match="paper.md"):
+        module.main([str(results)])
