@@ -17,8 +17,9 @@ import math
 import platform
 from pathlib import Path
 
+import pandas as pd
+
 from morphbench.bench.report import claims_of
-from morphbench.bench.store import Store
 from morphbench.files import check_section, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -51,8 +52,9 @@ def _measured(verdict) -> str:
 
 
 def sections(results: Path, verdicts) -> tuple[list[str], list[str]]:
-    """The lines of docs/paper.md's section and of docs/calibration.md's."""
-    jobs = Store(results).consolidate(write=False)["jobs"]
+    """The lines of docs/paper.md's section and of docs/calibration.md's (``verdicts``: ``claims_of(results)``, which
+    consolidated the tables)."""
+    jobs = pd.read_parquet(results / "jobs.parquet", columns=["status"])  # as claims_of consolidated them
     source = (f"`morphbench bench benchmarks/paper.toml --workers 2 --out {results}`, {len(jobs)} jobs, "
               f"{int((jobs.status == 'done').sum())} done")
     held = ", ".join(v.claim.id for v in verdicts if v.holds is True)
