@@ -371,7 +371,7 @@ def test_random_malformed_tables_raise_config_error(case: tuple[dict, str]):
     message = str(info.value)
     assert str(path) in message
     assert info.value.key == dotted
-    shown = dotted.replace("\r", "\\r").replace("\n", "\\n")  # a message is one line, whatever a key holds
+    shown = dotted.replace("\r", "\\r").replace("\n", "\\n").replace("\0", "\\0")  # a message is one line, with no NUL
     assert f": {shown}: expected " in message
 
 
