@@ -173,7 +173,7 @@ class ActuatorParams:
     stiffness: float = param(300.0, between(1e-3, 1e10), "N/m")
     """N/m, axial stiffness of the bellows (up to 1e10: the quasi-static model takes a rigid link; PyBullet's
     explicit springs need a finer timestep above a few hundred)."""
-    open_stiffness: float = param(30.0, between(1e-3, 1e10), "N/m")
+    open_stiffness: float = param(30.0, between(1e-3, 1e10), "N/m", later=True)
     """N/m, axial stiffness of a bellows open to the air (damage 'open': the paper's removed needle). It holds no
     air, so it cannot inflate and only its elastomer wall resists being pushed or pulled; ``stiffness`` is that of
     a bellows holding air behind its needle."""
@@ -277,21 +277,21 @@ class LearnerParams:
     (docs/fidelity.md, S1 with 0 and 1)."""
     initial_memory: InitialMemory = param("measure", Choices(INITIAL_MEMORY_CHOICES))
     """what the memory holds before the first trial: 'measure' (velocity at the initial phase), '-inf' or 'zero'."""
-    memory_weight: float = param(0.5, between(0, 1, low_inclusive=False))
+    memory_weight: float = param(0.5, between(0, 1, low_inclusive=False), later=True)
     """beta, the 'averaged' learner's only own field: after every trial its memory moves the fraction beta of the
     way to the measured velocity, memory <- (1 - beta) memory + beta U', an exponential average of its measurements
     over about 1 / beta steps; 1 is Flaky."""
-    adapt_rate: float = param(0.2, between(0, 5))
+    adapt_rate: float = param(0.2, between(0, 5), later=True)
     """c, of the 'adaptive' learner: after every ``adapt_window`` trials its step size is multiplied by exp(c) if
     it accepted more than ``target_acceptance`` of them, by exp(-c) if fewer; 0 keeps step_size (Thermal)."""
-    adapt_window: int = param(10, COUNT, "steps")
+    adapt_window: int = param(10, COUNT, "steps", later=True)
     """the trials the 'adaptive' learner's acceptance rate is counted over before each change of its step size."""
-    target_acceptance: float = param(0.4, Range(0, 1, low_inclusive=False))
+    target_acceptance: float = param(0.4, Range(0, 1, low_inclusive=False), later=True)
     """the acceptance rate the 'adaptive' learner steers to. Not the 1/5 rule's 0.2: a learned Thermal unit accepts
     0.2-0.35 of trials at step 0.1, so 0.2 grows the step and loses, where 0.4 gains (docs/learners.md)."""
-    step_size_min: float = param(0.01, between(0, 1, low_inclusive=False), "cycles")
+    step_size_min: float = param(0.01, between(0, 1, low_inclusive=False), "cycles", later=True)
     """the smallest step size the 'adaptive' learner shrinks to."""
-    step_size_max: float = param(0.5, between(0, 1, low_inclusive=False), "cycles")
+    step_size_max: float = param(0.5, between(0, 1, low_inclusive=False), "cycles", later=True)
     """the largest step size the 'adaptive' learner grows to (at least step_size_min; 0.5 already reaches every
     phase)."""
 
@@ -338,13 +338,13 @@ class EnvironmentParams:
     friction_field: FrictionFieldParams = field(default_factory=FrictionFieldParams)
     ground: GroundParams = field(default_factory=lambda: GroundParams())
     """the texture optical sensors look at (and videos show)."""
-    clock_drift: float = param(0.0, between(0, MAX_CLOCK_DRIFT), "fraction of the cycle time")
+    clock_drift: float = param(0.0, between(0, MAX_CLOCK_DRIFT), "fraction of the cycle time", later=True)
     """each unit's own clock runs at its own rate: its pump period is cycle_time * (1 + e), e drawn per unit uniform
     over [-clock_drift, clock_drift] from the run's seed (a stream of its own, streams.CLOCK_STREAM), from 0 (one
     shared clock) to 0.05; a crystal is off by tens of ppm (1e-5), an RC oscillator by about 1%. The phase between
     two units then drifts by (e_i - e_j) cycles per cycle unless their learners hold it, and a unit measures over
     cycles_per_step of its own cycles (docs/sensing.md, "Units with their own clocks")."""
-    clock_offset: float = param(0.0, between(0, 1), "fraction of a learning step")
+    clock_offset: float = param(0.0, between(0, 1), "fraction of a learning step", later=True)
     """each unit starts its learning steps at its own moment: offset o drawn per unit uniform over [0, clock_offset]
     of a learning step ((discard_cycles + cycles_per_step) cycles) from the same stream; 0 is every unit changing
     phase at once. A unit's measurement window then overlaps its neighbours' phase changes. Per-unit learners only

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from morphbench.errors import ConfigError
+from morphbench.identity import ADDED_LATER
 
 # --- what a value may be: declared once per field, checked the same way in files, options and the API -----------
 
@@ -152,9 +153,11 @@ def check_plan_size(count: int, limit: int, bytes_each: int, what: str, source: 
     return count
 
 
-def param(default: Any, rule: Rule, unit: str = "") -> Any:
-    """A dataclass field with its allowed values (``rule``) and the unit its messages name."""
-    return field(default=default, metadata={"rule": rule, "unit": unit})
+def param(default: Any, rule: Rule, unit: str = "", *, later: bool = False) -> Any:
+    """A dataclass field with its allowed values (``rule``) and the unit its messages name. ``later``: added after
+    results existed, its default acting as before it did, so ids leave it out at its default
+    (``morphbench.identity``)."""
+    return field(default=default, metadata={"rule": rule, "unit": unit, **(ADDED_LATER if later else {})})
 
 
 def rule_of(owner: Any, name: str) -> tuple[Rule, str]:

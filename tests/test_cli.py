@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from morphbench.bench.identity import shape_id
+from morphbench.identity import shape_id
 from morphbench.cli import EXIT_BAD_INPUT
 from morphbench.params import LearnerParams
 from morphbench.shapes import load_shape

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from morphbench.bench import load_suite
-from morphbench.bench.identity import config_identity, stable_hash
+from morphbench.identity import config_identity, stable_hash
 from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig, load_run_config, run
 from morphbench.experiment.driver import batchable, run_batch

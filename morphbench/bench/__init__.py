@@ -3,9 +3,9 @@
     suite.py      the suite file format (TOML) and its reader
     model.py      a suite once read: its runs, scans (in parts), experiments and jobs
     expand.py     an experiment's matrix and each scan expanded into runs and scan parts with stable ids
+                  (morphbench.identity)
     aliases.py    the first suites' keys, still read (translated into run-configuration keys)
     cost.py       the cost estimate of a job (for the progress bar and longest-first scheduling)
-    identity.py   the stable ids of shapes, environments and runs (pure: no simulator)
     jobs.py       what a worker does with one job (never raises: a failure is a result)
     executors.py  a local process pool (default) or a Dask distributed cluster
     store.py      the results directory: one atomically written directory per job, consolidated tables

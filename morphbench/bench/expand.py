@@ -1,6 +1,6 @@
 """A suite's expansion: each experiment a run configuration whose lists are the axes of a matrix, every combination
 read by the run-configuration loader (experiment/config.py) and run once per seed, with stable ids
-(bench/identity.py); each scan table into a ScanSpec. The format is described in bench/suite.py."""
+(morphbench/identity.py); each scan table into a ScanSpec. The format is described in bench/suite.py."""
 
 from __future__ import annotations
 
@@ -16,8 +16,7 @@ from typing import Any
 from morphbench import params as P
 from morphbench.bench.aliases import rename
 from morphbench.bench.cost import run_cost
-from morphbench.bench.identity import (config_identity, environment_id, environment_identity, shape_id,
-                                       shape_identity, stable_hash)
+from morphbench.identity import config_identity, environment_id, identity, shape_id, shape_identity, stable_hash
 from morphbench.bench.model import SCAN_PART_POINTS, Experiment, RunSpec, ScanSpec
 from morphbench.errors import ConfigError
 from morphbench.experiment.config import physics_from_table, run_config_from_table
@@ -142,12 +141,12 @@ def expand_experiment(table: dict, names: dict[str, str], name: str, description
         preset = physics.pop("preset", "default")
         condition = _condition_columns(config, ", ".join([preset, _settings_label(physics)]) if physics else preset)
         condition.update(environment=label, environment_id=ground, events=events_summary(config.events))
-        identity = config_identity(config, preset)
-        del identity["seed"]
-        condition_id = stable_hash(identity)
+        hashed = config_identity(config, preset)
+        del hashed["seed"]
+        condition_id = stable_hash(hashed)
         cost = run_cost(config)
         for seed in seeds:
-            run_id = stable_hash({**identity, "seed": seed})
+            run_id = stable_hash({**hashed, "seed": seed})
             if run_id not in runs:
                 runs[run_id] = RunSpec(run_id, condition_id, condition, seed, dataclasses.replace(config, seed=seed),
                                        cost=cost)
@@ -244,13 +243,13 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
     check_scan_size(shape.n_units, resolution, samples, src, f"{where}.samples" if sampled and samples else
                     f"{where}.resolution")
     phases = scan_phases(shape.n_units, resolution, samples, seed)
-    identity = {"shape": shape_identity(shape), "resolution": resolution, "samples": samples if sampled else None,
-                "seed": seed if sampled else None, "cycles": cycles, "discard": discard,
-                "physics": dataclasses.asdict(physics), "part_points": SCAN_PART_POINTS,
-                "environment": environment_identity(environment)}  # the default one keeps earlier scans' ids
+    hashed = {"shape": shape_identity(shape), "resolution": resolution, "samples": samples if sampled else None,
+              "seed": seed if sampled else None, "cycles": cycles, "discard": discard,
+              "physics": dataclasses.asdict(physics), "part_points": SCAN_PART_POINTS,
+              "environment": identity(environment)}  # the default one keeps earlier scans' ids
     if damage is not None:  # a healthy scan keeps the id it had before scans could be damaged
-        identity["damage"] = {"unit": damage.unit, "mode": damage.mode}
-    scan_id = stable_hash(identity)
+        hashed["damage"] = {"unit": damage.unit, "mode": damage.mode}
+    scan_id = stable_hash(hashed)
     columns = {"scan": name, "shape": shape.name, "shape_id": shape_id(shape), "n_units": shape.n_units,
                "resolution": resolution, "samples": len(phases), "cycles": cycles, "discard": discard, "seed": seed,
                "physics": physics_label, "environment": _settings_label(environment_table),

@@ -78,7 +78,7 @@ unusable learner raises ``ConfigError`` naming the suite file and the key as wri
 
 Each run's id is a hash of everything that determines its records (the shape's content, not its path; the
 learner, its parameters, sensor, environment, events and physics parameters, noise, steps, seed:
-morphbench.bench.identity), so the same run has the same id in any suite, written with either keys, in any
+morphbench.identity), so the same run has the same id in any suite, written with either keys, in any
 directory and on any machine: a results directory skips the runs it already holds, and a run listed by two
 experiments of a suite is run once. A condition is a run's configuration without its seed; its id is a hash too.
 """

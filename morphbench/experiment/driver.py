@@ -13,18 +13,23 @@ records; a batch's built-in learners and ideal sensors are one each. The same nu
 so every run's records equal those of ``run`` with the same configuration, bit for bit (tests/test_batch.py). A run
 that fails (a plug-in error, a PhysicsError) stops alone, with its rows of the steps before: its copy goes on
 moving, unseen, and the other runs finish.
+
+Units with clocks of their own (experiment.clocks) take another timeline, ``Schedule``: the batch advances a fixed
+grid of ticks at a time and each unit ends its step, proposes and starts measuring at its own tick (its run's
+``OwnClocks``); ``Driver.step`` runs one or the other.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 import time
 from typing import Callable
 
 import numpy as np
 
-from morphbench.experiment.clocks import Schedule, clocked
+from morphbench.experiment.clocks import OwnClocks, clocked, schedule_grid
 from morphbench.experiment.events import Event, describe
 from morphbench.experiment.records import RunRecords, StepRows
 from morphbench.experiment.run import Measurement, RunConfig, RunLoop, ground_poses
@@ -305,6 +310,94 @@ class _Places:
                    piece=np.array([np.ones(n_units, dtype=int) if loop is None else loop.piece for loop in loops]),
                    alive=np.array([np.zeros(n_units, dtype=bool) if loop is None else loop.alive for loop in loops]),
                    noise=[0.0 if loop is None else loop.state.noise for loop in loops])
+
+
+END, EVENTS, PROPOSE, START, RECORD = range(5)
+"""What happens at one tick, in this order (a unit's step ends before it proposes the next one; a step is recorded
+once its last unit has ended it)."""
+
+
+class Schedule:
+    """The timeline of a batch's runs whose units have clocks of their own (``Driver`` with ``clocked``
+    environments): ``step(k)`` runs learning step k's span of L ticks, in which each unit ends its step k - 1 and
+    starts its step k at its own offset, and records step k - 1; the last step also runs on until every unit has
+    measured it."""
+
+    def __init__(self, driver: Driver):
+        self.driver = driver
+        _, discard, measured = driver.ticks
+        self.step_ticks = discard + measured
+        self.steps = driver.configs[0].steps
+        some = next(iter(driver.loops.values()), None)
+        self.every = 1 if some is None else math.gcd(
+            *[max(1, some.world.ticks_in(bank.sample_period)) for bank in (some.sensor, some.truth) if bank])
+        """ticks between the sensors' samples."""
+        self.grid = schedule_grid(self.every, self.step_ticks)
+        self.clocks: dict[int, OwnClocks] = driver._each(lambda i, loop: OwnClocks(loop, self.grid), driver._loops())
+        self.now = 0
+        """ticks since the end of the warm-up."""
+
+    def begin(self) -> None:
+        self.driver._each(lambda i, clocks: clocks.begin(), self._clocks())
+
+    def _clocks(self) -> list[OwnClocks | None]:
+        return [self.clocks.get(i) if self.driver.outcome[i] is None else None for i in range(len(self.driver.configs))]
+
+    def step(self, step: int) -> dict[int, np.ndarray]:
+        """Learning step ``step``'s span (and, for the last, the span that ends it); per run by index the measured
+        velocities of the step recorded (``step - 1``, then the last)."""
+        recorded = self._span(step)
+        if step == self.steps:
+            recorded = self._span(step + 1)
+        return recorded
+
+    def _actions(self, k: int) -> list[tuple[int, int, int, int, np.ndarray | None]]:
+        """Span k's actions of every run going: (tick, what, run, step, due units)."""
+        L, base, actions = self.step_ticks, k * self.step_ticks, []
+        for r, clocks in enumerate(self._clocks()):
+            if clocks is None:
+                continue
+            if k <= self.steps:
+                actions.append((base, EVENTS, r, k, None))
+            for offset in np.unique(clocks.offsets):
+                due = clocks.offsets == offset
+                if k >= 1:
+                    actions.append((base + int(offset), END, r, k - 1, due))
+                if k <= self.steps:
+                    actions.append((base + int(offset), PROPOSE, r, k, due))
+            for s in (k - 1, k):
+                if 0 <= s <= self.steps:
+                    starts = (s + 1) * L + clocks.offsets - clocks.windows
+                    for tick in np.unique(starts[(starts >= base) & (starts < base + L)]):
+                        actions.append((int(tick), START, r, s, starts == tick))
+            if k >= 1:
+                actions.append((base + int(clocks.offsets.max()), RECORD, r, k - 1, None))
+        return sorted(actions, key=lambda a: a[:3])
+
+    def _span(self, k: int) -> dict[int, np.ndarray]:
+        driver, recorded = self.driver, {}
+        for tick, what, r, step, due in self._actions(k):
+            if driver.outcome[r] is not None:
+                continue
+            self._advance(tick)
+            clocks = self.clocks[r]
+            action = {END: lambda: clocks.end(step, due), EVENTS: lambda: clocks.apply_events(step),
+                      PROPOSE: lambda: clocks.propose(step, due), START: lambda: clocks.start(due),
+                      RECORD: lambda: recorded.__setitem__(r, clocks.record(step, driver.records[r]))}[what]
+            driver.guard(r, action)
+        if k <= self.steps:
+            self._advance((k + 1) * self.step_ticks)
+        return recorded
+
+    def _advance(self, tick: int) -> None:
+        """The batch advanced to ``tick`` a grid interval at a time, every going run's banks sampled every ``every``
+        ticks (and where its windows end or start)."""
+        while self.now < tick and self.driver.going():
+            samples = self.driver.batch.advance_sampled(self.grid, self.grid, self.driver.on_tick)
+            self.now += self.grid
+            for r, clocks in enumerate(self._clocks()):
+                if clocks is not None:
+                    clocks.sampled(*samples[r], self.now % self.every == 0)
 
 
 def _interrupted(exc: BaseException) -> bool:

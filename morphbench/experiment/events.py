@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from morphbench.errors import ConfigError, PhysicsError, require_integer
+from morphbench.identity import ADDED_LATER, identity
 from morphbench.params import DAMAGE_MODES, FRICTION_TARGETS, SEED, EnvironmentParams
 from morphbench.rules import Choices, check, check_rule
 from morphbench.shapes.transforms import shuffle_order
@@ -95,11 +96,9 @@ class Event(ABC):
                      if f.name not in ("step", "kind") and f.default is not dataclasses.MISSING)
 
     def settings(self) -> dict[str, Any]:
-        """step, kind and the kind's fields, less those left at their default: what identifies the event (an
-        optional field added later leaves the events written before it as they were)."""
-        defaults = {f.name: f.default for f in dataclasses.fields(self) if f.name in self.optional_fields()}
-        return {name: value for name, value in dataclasses.asdict(self).items()
-                if name not in defaults or value != defaults[name]}
+        """step, kind and the kind's fields, less those added later at their default (``morphbench.identity``): what
+        identifies the event, so the events written before such a field keep their ids and text."""
+        return identity(self)
 
     def describe(self) -> str:
         """Short text for the records, e.g. 'damage unit=2 mode=no-inflate'."""
@@ -112,7 +111,7 @@ class FrictionEvent(Event):
     kind: str = field(default="friction", init=False)
     scale: float
     """new friction scale (EnvironmentParams.friction_scale's range)."""
-    bodies: str = "all"
+    bodies: str = field(default="all", metadata=ADDED_LATER)
     """the bodies whose friction it scales (params.FRICTION_TARGETS): the others keep theirs."""
 
     @classmethod

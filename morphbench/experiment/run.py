@@ -16,8 +16,8 @@ from typing import Callable
 
 import numpy as np
 
-from morphbench.bench.identity import shape_id
 from morphbench.errors import ConfigError, PhysicsError
+from morphbench.identity import shape_id
 from morphbench.experiment.records import RunRecords
 from morphbench.learning import Controller
 from morphbench.experiment.events import CutEvent, Event, RunState, describe, parse_events

@@ -61,18 +61,33 @@ def resolve_backend(shape, physics: PhysicsParams, environment: EnvironmentParam
     for a PyBullet scene to render, as the camera sensor does; PyBullet for stacks). A quasi-static model outside its
     range (``check_quasistatic_friction``) is a ConfigError, also when 'auto' picks it: a run is never switched to
     another model behind its back."""
+    return _resolve(shape, physics, environment, scene)[0]
+
+
+STACK_SUBSTEPS = 2
+"""PyBullet steps per tick that 'auto' gives a stack: the explicit link springs of bodies standing on bodies need
+them (benchmarks/library_seeds.py: at 1, stack-2x2x2-lift left the model's validity in 2 of 100 seeds, its Ubar far
+from the reference setting's; at 2 it agrees with the reference)."""
+
+
+def _resolve(shape, physics: PhysicsParams, environment: EnvironmentParams, scene: bool
+             ) -> tuple[str, PhysicsParams]:
+    """The backend (``resolve_backend``) and the integration settings it runs with: 'auto' gives a stack on PyBullet
+    ``STACK_SUBSTEPS``; a backend named explicitly keeps the settings it is given."""
     if physics.backend not in PHYSICS_BACKENDS:
         raise ConfigError("physics", "backend", f"one of {', '.join(PHYSICS_BACKENDS)}", physics.backend)
-    if physics.backend == "pybullet" or (physics.backend == "auto" and scene):
-        return World.backend
+    if physics.backend == "pybullet":
+        return World.backend, physics
     try:
         backend = _quasistatic_backend(shape)
     except ConfigError:
         if physics.backend == "quasistatic":
             raise
-        return World.backend  # auto: a stack
+        return World.backend, replace(physics, substeps=max(physics.substeps, STACK_SUBSTEPS))  # auto: a stack
+    if physics.backend == "auto" and scene:
+        return World.backend, physics
     check_quasistatic_friction(shape, environment, shape.source)
-    return backend
+    return backend, physics
 
 
 def _quasistatic_backend(shape) -> str:
@@ -84,24 +99,6 @@ def _quasistatic_backend(shape) -> str:
         check_one_layer(shape)
         return PlanarWorld.backend
     return QuasiStaticWorld.backend
-
-
-STACK_SUBSTEPS = 2
-"""PyBullet steps per tick that 'auto' gives a stack: the explicit link springs of bodies standing on bodies need
-them (benchmarks/library_seeds.py: at 1, stack-2x2x2-lift left the model's validity in 2 of 100 seeds, its Ubar far
-from the reference setting's; at 2 it agrees with the reference)."""
-
-
-def _auto_settings(shape, physics: PhysicsParams, backend: str) -> PhysicsParams:
-    """The integration settings 'auto' picks with its backend: a stack on PyBullet takes ``STACK_SUBSTEPS``; a
-    backend named explicitly keeps the settings it is given."""
-    if physics.backend != "auto" or backend != World.backend or physics.substeps >= STACK_SUBSTEPS:
-        return physics
-    try:
-        check_one_layer(shape)
-    except ConfigError:
-        return replace(physics, substeps=STACK_SUBSTEPS)
-    return physics
 
 
 def quasistatic_world(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams()):
@@ -170,8 +167,7 @@ def make_world(shape, physics: PhysicsParams, environment: EnvironmentParams = E
     """A world of ``shape`` on the backend ``resolve_backend`` picks. With ``copies``, a Batch whose ``worlds`` are
     that many copies advanced together: one world in a batch of one, or the copies of one batched world (a
     ValueError if the backend cannot hold more than one, see ``can_batch``)."""
-    backend = resolve_backend(shape, physics, environment, scene)
-    physics = _auto_settings(shape, physics, backend)
+    backend, physics = _resolve(shape, physics, environment, scene)
     if copies is None or copies == 1:
         world = BACKENDS[backend](shape, physics, environment)
         return world if copies is None else Single(world)

@@ -8,10 +8,10 @@ Besides physics/, this is the only package that talks to PyBullet (TinyRenderer,
 top view needs none).
 
     checks.py     video parameters and output paths, checked before anything is simulated
-    recorder.py   Recorder, what every video of a world shares (frame times, overlay, colours, the output file), and
-                  open_recorder, the one a shape's video uses (VideoParams.view)
+    recorder.py   Recorder, what every video of a world shares (frame times, overlay, colours, the output file)
     video.py      VideoRecorder: the side view, bodies rendered by TinyRenderer
     topdown.py    TopDownRecorder: the top view of a one-layer shape, every body's footprint drawn with numpy
+    views.py      open_recorder, the recorder a shape's video uses (VideoParams.view)
     ground.py     the checkered ground of a frame (side and top views), drawn without the simulator
     writers.py    MP4 in H.264 (PyAV; OpenCV without it) and GIF (Pillow) writers
     options.py    the --video options of the command line
@@ -27,7 +27,7 @@ export_lazily(__name__, {
     "check_output_path": "checks", "check_video_params": "checks",
     "add_render_arguments": "options", "video_params_from_args": "options",
     "load_run": "replay", "render_run": "replay", "phase_maps": "replay",
-    "Recorder": "recorder", "open_recorder": "recorder",
+    "Recorder": "recorder", "open_recorder": "views",
     "VideoRecorder": "video", "pressure_colour": "video",
     "TopDownRecorder": "topdown",
 })

@@ -1,6 +1,7 @@
 """What every video of a world shares, whatever draws its frames: when a frame is due, what the overlay says, the
 units' colours, and the output file. ``VideoRecorder`` (render.video, the 3-D camera) and ``TopDownRecorder``
-(render.topdown, footprints seen from above) draw; ``open_recorder`` picks one for a shape (``VideoParams.view``).
+(render.topdown, footprints seen from above) draw; ``render.views.open_recorder`` picks one for a shape
+(``VideoParams.view``).
 
 A recorder is an ``on_tick`` observer: every ``speed / fps`` simulated seconds it draws one frame. Frames are written
 (``render.writers``) to a temporary file beside the output and renamed onto it by ``close()``; ``abort()`` (or leaving
@@ -21,7 +22,7 @@ import numpy as np
 from morphbench.errors import ConfigError
 from morphbench.files import Replacement
 from morphbench.params import VideoParams
-from morphbench.render.checks import CLI_OPTIONS, GIF_MAX_FPS, check_output_path, check_video_params, resolve_view
+from morphbench.render.checks import CLI_OPTIONS, GIF_MAX_FPS, check_output_path, check_video_params
 from morphbench.render.writers import open_writer
 from morphbench.shapes.colours import DAMAGED_RGBA, phase_rgb, pressure_rgb
 
@@ -277,19 +278,6 @@ class Recorder:
             self.close()
         else:
             self.abort()
-
-
-def open_recorder(shape, path: str | os.PathLike, params: VideoParams = VideoParams(), *, source: str = "--video"
-                  ) -> Recorder:
-    """A recorder of a run of ``shape`` (its world given at the first tick) in the view ``params.view`` resolves to
-    for it (``checks.resolve_view``: a ConfigError naming ``--view`` for a top view of a shape not in one layer)."""
-    if resolve_view(shape, params) == "top":
-        from morphbench.render.topdown import TopDownRecorder
-
-        return TopDownRecorder(None, path, params, source=source)
-    from morphbench.render.video import VideoRecorder  # the simulator's camera
-
-    return VideoRecorder(None, path, params, source=source)
 
 
 def font_scale(height: int) -> float:

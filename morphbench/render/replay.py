@@ -20,14 +20,14 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from morphbench.bench.identity import shape_id
 from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig, run
 from morphbench.experiment.config import run_config_from_dict
 from morphbench.files import is_dir, is_file
+from morphbench.identity import shape_id
 from morphbench.params import VideoParams
 from morphbench.render.checks import check_output_path, check_video_params, resolve_view
-from morphbench.render.recorder import open_recorder
+from morphbench.render.views import open_recorder
 
 REPLAY_TOLERANCE = 1e-6
 """mm/cycle: a replayed step's Ubar may differ from the recorded one by this much (Parquet stores the exact float)."""
