@@ -1,5 +1,5 @@
 """The front page's pictures (README.md), made by morphbench itself: `python docs/make_media.py` rewrites
-docs/media/chain-3.gif (chain-3 finding its gait: its first 30 learning steps, 3 minutes of simulated time played in
+docs/media/chain-3.gif (chain-3 finding its gait: its first 30 learning steps, 2 minutes of simulated time played in
 6 s) and docs/media/learning-curve.png (the same run's learning curve). Deterministic: the same files every time.
 
 Off-screen (PyBullet's TinyRenderer); about 10 s on one core. ``--out DIR`` and ``--steps N`` (a shorter run, for the
