@@ -216,7 +216,9 @@ def _progress_bar(suite: Suite, todo: list[Job], executor, enabled: bool):
     from tqdm import tqdm
 
     n_runs = sum(job.kind == "run" for job in todo)
-    print(f"{suite.name}: {n_runs} runs and {len(todo) - n_runs} scan parts to do on a {executor.describe()}",
-          file=sys.stderr)
-    return tqdm(total=sum(job.cost for job in todo), desc=suite.name, unit="work",
-                bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]")
+    print(f"{suite.name}: {n_runs} runs and {len(todo) - n_runs} scan parts to do on a {executor.describe()}; the "
+          f"bar counts their estimated work (cycles x bodies^1.15), longest jobs first", file=sys.stderr)
+    # smoothing 0: the time left from the mean rate since the start; batches of seeds end together, and tqdm's
+    # default moving average of the last bursts made the estimate jump (0:41 to 9:58 in 15 s on the paper suite)
+    return tqdm(total=sum(job.cost for job in todo), desc=suite.name, unit="work", smoothing=0,
+                bar_format="{desc}: {percentage:3.0f}% of the work|{bar}| [{elapsed}<{remaining}{postfix}]")
