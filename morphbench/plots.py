@@ -20,7 +20,13 @@ PHASE_MAP_COLUMNS = 4
 
 
 def learning_curve(steps: pd.DataFrame, units: pd.DataFrame, path: str | Path, title: str = "") -> Path:
-    """Ubar and acceptance vs learning step, and each unit's kept phase."""
+    """Ubar and acceptance vs learning step, and each unit's kept phase (``learning_curve_figure``), as a PNG."""
+    return save_figure(learning_curve_figure(steps, units, title), path)
+
+
+def learning_curve_figure(steps: pd.DataFrame, units: pd.DataFrame, title: str = ""):
+    """The learning curve's figure: Ubar and acceptance vs learning step, each unit's kept phase, and the run's
+    events (``steps.event``) as a dashed line at their step in every panel, named above the first."""
     fig, (ax_u, ax_a, ax_p) = plt.subplots(3, 1, figsize=(7, 7.5), sharex=True)
     ax_u.plot(steps.step, steps.ubar, lw=1, label="measured")
     if not np.allclose(steps.ubar, steps.ubar_true):
@@ -38,8 +44,14 @@ def learning_curve(steps: pd.DataFrame, units: pd.DataFrame, path: str | Path, t
     ax_p.set_xlabel("learning step")
     if units.unit.nunique() <= 8:
         ax_p.legend(loc="upper right", fontsize="small", markerscale=4)
+    events = steps[steps.event.fillna("").astype(str) != ""] if "event" in steps else steps.iloc[:0]
+    for step, text in zip(events.step, events.event):
+        for ax in (ax_u, ax_a, ax_p):
+            ax.axvline(step, color="0.4", lw=0.8, ls="--")
+        ax_u.annotate(text, (step, 1.0), xycoords=("data", "axes fraction"), xytext=(2, 2),
+                      textcoords="offset points", fontsize="x-small", color="0.3", va="bottom")
     fig.suptitle(title)
-    return save_figure(fig, path)
+    return fig
 
 
 def trajectory_figure(tracks: pd.DataFrame | Mapping[str, pd.DataFrame], path: str | Path, title: str = "") -> Path:
