@@ -47,8 +47,15 @@ KINDS = ("shape", "run", "suite", "options", "plugin")
 FAMILIES = ("delete", "unknown", "type", "number", "path", "syntax", "deep")
 RUN_FILES = {"units.parquet", "steps.parquet", "pieces.parquet", "summary.json", "learning_curve.png",
              "trajectory.png"}
-TIMEOUT_S = 20.0
-"""A case still running after this is a crash ("timeout"): an absurd value that was accepted and runs for ever."""
+# A time limit here only catches a hang, never slowness: the cases take 1-3 s on an idle machine and several times
+# that on a busy one. A hang is an absurd value that was accepted and computes for ever, which burns CPU time, a
+# clock other processes do not advance: CPU_TIMEOUT_S (ITIMER_PROF, this process's CPU time) catches it however busy
+# the machine is. A process blocked for ever (on a child process, a lock) burns none: the wall clock's TIMEOUT_S,
+# minutes, is the backstop for that.
+CPU_TIMEOUT_S = 60.0
+"""CPU time (s) of the process running a case after which it is a crash ("timeout")."""
+TIMEOUT_S = 300.0
+"""Wall time (s) after which a case still running is a crash ("timeout"): one blocked for ever."""
 BANNER = "pybullet build time"
 
 
@@ -499,7 +506,7 @@ def random_cases(kind: str, n: int, seed: int, families: Sequence[str] = FAMILIE
 # --- running and judging ----------------------------------------------------------------------------------------------
 
 class CaseTimeout(BaseException):
-    """Raised by SIGALRM in a case that runs too long (BaseException: no ``except Exception`` swallows it)."""
+    """Raised by SIGPROF or SIGALRM in a case that hangs (BaseException: no ``except Exception`` swallows it)."""
 
 
 @dataclass
@@ -542,9 +549,10 @@ def prepare(case: Case, workdir: Path) -> tuple[list[str], Path, Path]:
     return [_fill(a, directory, out) for a in case.argv], directory, out
 
 
-def run_case(case: Case, workdir: Path, timeout_s: float = TIMEOUT_S) -> Outcome:
+def run_case(case: Case, workdir: Path, timeout_s: float = TIMEOUT_S, cpu_timeout_s: float = CPU_TIMEOUT_S) -> Outcome:
     """Run ``case`` through ``morphbench.cli.main`` in-process with ``workdir`` (new, empty) as the working directory,
-    stdout and stderr captured; judge it (``Outcome.verdict``)."""
+    stdout and stderr captured; judge it (``Outcome.verdict``). A case still running after ``timeout_s`` of wall time
+    or ``cpu_timeout_s`` of this process's CPU time is a timeout."""
     from morphbench.cli import main
 
     workdir.mkdir(parents=True, exist_ok=True)
@@ -561,13 +569,18 @@ def run_case(case: Case, workdir: Path, timeout_s: float = TIMEOUT_S) -> Outcome
     def alarm(signum, frame):
         raise CaseTimeout(f"still running after {timeout_s:g} s")
 
+    def cpu_alarm(signum, frame):
+        raise CaseTimeout(f"still running after {cpu_timeout_s:g} s of CPU time")
+
     old_handler = signal.signal(signal.SIGALRM, alarm)
+    old_cpu_handler = signal.signal(signal.SIGPROF, cpu_alarm)
     try:
         os.chdir(cwd)
         sys.path.insert(0, plugins)
         os.environ["PYTHONPATH"] = os.pathsep.join(p for p in (plugins, old_env) if p)  # the suite's workers too
         sys.dont_write_bytecode = True  # no __pycache__ beside a plug-in: the listing compares what morphbench wrote
         signal.setitimer(signal.ITIMER_REAL, timeout_s)
+        signal.setitimer(signal.ITIMER_PROF, cpu_timeout_s)
         with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
             try:
                 status = main(argv)
@@ -579,7 +592,9 @@ def run_case(case: Case, workdir: Path, timeout_s: float = TIMEOUT_S) -> Outcome
         exception = exc
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.setitimer(signal.ITIMER_PROF, 0)
         signal.signal(signal.SIGALRM, old_handler)
+        signal.signal(signal.SIGPROF, old_cpu_handler)
         os.chdir(old_cwd)
         sys.path[:] = old_path
         sys.dont_write_bytecode = old_bytecode

@@ -27,7 +27,7 @@ SUITE = settings(max_examples=8, deadline=None, suppress_health_check=[HealthChe
 def check(case: fuzzing.Case) -> fuzzing.Outcome:
     """Run ``case`` and assert the promise: refused cleanly or accepted completely."""
     with tempfile.TemporaryDirectory() as directory:
-        outcome = fuzzing.run_case(case, Path(directory) / "case", timeout_s=8)  # accepted cases take < 3 s
+        outcome = fuzzing.run_case(case, Path(directory) / "case")  # time limits that catch hangs only (fuzzing)
     detail = (f"{case.kind} {case.short()}: {outcome.verdict}; exit {outcome.status!r}, "
               f"exception {outcome.exception!r}, stderr {outcome.err[-400:]!r}, written {outcome.written[:5]}")
     assert outcome.exception is None, detail

@@ -4,8 +4,6 @@ start: batches of seeds end together, in bursts, and a moving average of the las
 import io
 from types import SimpleNamespace
 
-import pytest
-
 from morphbench.bench.model import Job
 from morphbench.bench.runner import _progress_bar
 

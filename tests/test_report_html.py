@@ -1,6 +1,8 @@
 """report.html: one self-contained page (figures, video, CSS inline; no request), its contents per experiment, the
 suite file and versions, a video per experiment that a real browser plays (when one is installed), and a report
-that survives a replay that fails."""
+that survives a replay that fails. No test here times anything: what made the report quick is asserted as what
+happened (the videos render in a process of their own while report.md is written; reused videos are not rendered
+again)."""
 
 from __future__ import annotations
 
@@ -8,10 +10,11 @@ import base64
 import html
 import json
 import math
+import os
 import re
 import shutil
 import subprocess
-import time
+from concurrent.futures import Future
 
 import av
 import numpy as np
@@ -19,8 +22,10 @@ import pandas as pd
 import pytest
 from PIL import Image
 
+import morphbench.render
 from morphbench.bench import build_report
 from morphbench.bench import html as page_module
+from morphbench.bench import report as report_module
 from morphbench.bench.provenance import read_sessions, software_versions
 from morphbench.bench.videos import Video, pick_runs, steps_to_show
 from morphbench.render.writers import H264Writer
@@ -30,14 +35,72 @@ from conftest import ROOT, run_cli
 BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 
 
+RENDERS = "renders.jsonl"
+"""beside a results directory: a line per ``_videos`` call of a report's video process (its pid, the videos it
+rendered)."""
+VIDEOS = page_module._videos
+"""what start_videos submits to its pool, unpatched."""
+
+
+def _videos_recorded(root, plan):
+    """``html._videos`` (what ``start_videos`` submits) as it runs in the video process, which writes down its pid and
+    the videos it renders (``render_run`` calls) in ``root/../renders.jsonl``. A spawned process imports this module
+    again: the test's monkeypatches are not there, this function is."""
+    rendered = []
+    real = morphbench.render.render_run
+
+    def counted(run_dir, out, params):
+        rendered.append(os.path.relpath(out, root))
+        return real(run_dir, out, params)
+
+    morphbench.render.render_run = counted
+    try:
+        return VIDEOS(root, plan)
+    finally:
+        morphbench.render.render_run = real
+        with open(os.path.join(os.path.dirname(root), RENDERS), "a") as record:
+            record.write(json.dumps({"pid": os.getpid(), "rendered": rendered}) + "\n")
+
+
+def build_recorded(out, monkeypatch) -> dict:
+    """``build_report(out, videos=True)``, and what happened: ``calls`` (start_videos and write_html, in order, with
+    whether report.md was there and the videos write_html was given), ``here`` (videos rendered in this process) and
+    ``process`` (the video process's line of renders.jsonl)."""
+    calls, here = [], []
+    record = out.parent / RENDERS
+    record.unlink(missing_ok=True)
+
+    def start_videos(root):
+        written = (out / "report.md").exists()
+        future = real_start(root)
+        calls.append(("start_videos", written, future))
+        return future
+
+    def write_html(root, videos=True):
+        calls.append(("write_html", (out / "report.md").exists(), videos))
+        return real_write(root, videos=videos)
+
+    real_start, real_write = report_module.start_videos, report_module.write_html
+    monkeypatch.setattr(report_module, "start_videos", start_videos)
+    monkeypatch.setattr(report_module, "write_html", write_html)
+    monkeypatch.setattr(page_module, "_videos", _videos_recorded)  # what start_videos submits to its pool
+    real_render = morphbench.render.render_run
+    monkeypatch.setattr(morphbench.render, "render_run", lambda *args: here.append(args) or real_render(*args))
+    build_report(out, videos=True)
+    lines = record.read_text().splitlines() if record.exists() else []
+    assert len(lines) == 1, lines  # one video process, which ran _videos once
+    return {"calls": calls, "here": here, "process": json.loads(lines[0])}
+
+
 @pytest.fixture(scope="module")
 def page(reference, tmp_path_factory):
-    """A copy of the tiny suite's results with its report built with videos: (results dir, report.html text, s)."""
+    """A copy of the tiny suite's results with its report built with videos: (results dir, report.html text, what
+    happened: ``build_recorded``)."""
     out = tmp_path_factory.mktemp("html") / "results"
-    shutil.copytree(reference[1], out)
-    started = time.perf_counter()
-    build_report(out, videos=True)
-    return out, (out / "report.html").read_text(encoding="utf-8"), time.perf_counter() - started
+    shutil.copytree(reference[1], out, ignore=shutil.ignore_patterns("videos", "report.md", "report.html"))
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        happened = build_recorded(out, monkeypatch)
+    return out, (out / "report.html").read_text(encoding="utf-8"), happened
 
 
 def test_the_page_is_self_contained(page):
@@ -86,7 +149,7 @@ def test_the_suite_file_verbatim_and_the_versions(reference, page):
 
 
 def test_one_h264_video_per_experiment_in_the_page_and_in_videos(page):
-    out, text, seconds = page
+    out, text, _ = page
     plan = json.loads((out / "plan.json").read_text())
     runs = pd.read_parquet(out / "runs.parquet")
     chosen = pick_runs(plan, lambda run_id: bool((runs.run_id == run_id).any()) and
@@ -110,16 +173,31 @@ def test_one_h264_video_per_experiment_in_the_page_and_in_videos(page):
         assert 8 <= simulated <= 20 and duration == pytest.approx(simulated, abs=0.2)  # speed 1: real time
         assert f'src="data:video/mp4;base64,{base64.b64encode(video.read_bytes()).decode()}"' in text
         assert f"learning steps {first_step} to {last}" in text
-    assert seconds < 30  # the whole report, videos included
 
 
-def test_videos_are_reused_and_can_be_left_out(page, capsys):
+def test_the_videos_render_in_a_process_of_their_own_while_report_md_is_written(page):
+    """What keeps the report quick: build_report starts the videos (start_videos: a pool of one spawned process)
+    before it writes report.md, and write_html takes them from that process; none is rendered in this one."""
+    out, text, happened = page
+    (start, md_before, future), (write, md_after, videos) = happened["calls"]
+    assert (start, write) == ("start_videos", "write_html")
+    assert not md_before and md_after  # started before report.md was written, taken after
+    assert isinstance(future, Future) and videos is future and future.done()
+    plan = json.loads((out / "plan.json").read_text())
+    assert happened["process"]["pid"] != os.getpid()
+    assert happened["process"]["rendered"] == [f"videos/{e['name']}.mp4" for e in plan["experiments"]]
+    assert happened["here"] == []  # nothing rendered in the report's own process
+    assert f"Videos: {len(plan['experiments'])} rendered in " in text
+
+
+def test_videos_are_reused_and_can_be_left_out(page, capsys, monkeypatch):
     out, _, _ = page
-    before = (out / "videos" / "pair.mp4").stat().st_mtime_ns
-    started = time.perf_counter()
-    build_report(out, videos=True)
-    assert time.perf_counter() - started < 10
-    assert (out / "videos" / "pair.mp4").stat().st_mtime_ns == before
+    before = {p.name: p.stat().st_mtime_ns for p in (out / "videos").iterdir()}
+    assert sorted(before) == ["pair.json", "pair.mp4"]
+    happened = build_recorded(out, monkeypatch)
+    assert happened["process"]["rendered"] == [] and happened["here"] == []  # no video rendered again
+    assert happened["process"]["pid"] != os.getpid()
+    assert {p.name: p.stat().st_mtime_ns for p in (out / "videos").iterdir()} == before  # nor written again
     assert "Videos: 1 reused." in (out / "report.html").read_text()
 
     code, stdout, _ = run_cli(capsys, "report", str(out), "--no-videos")
