@@ -44,6 +44,10 @@ BIMODAL = 5 / 9
 LEARNED_AFTER = M.LEARNED_AFTER
 WINDOW = 20
 """learning steps before and after an event over which acceptance is compared."""
+MIN_STEPS = 2 * LEARNED_AFTER
+"""the fewest learning steps of a condition a claim about learning is measured on: the paper's findings are about
+learning done (after about LEARNED_AFTER steps) and what follows it; a shorter run measures the transient, and its
+verdict would be a false 'no' (the smoke suite's 10-step runs)."""
 
 
 @dataclass(frozen=True)
@@ -248,6 +252,9 @@ def condition(tables: dict, n_units: int, learner: str = "thermal", step_size: f
     if mine.empty:
         return (f"the suite has no finished {n_units}-unit {learner} runs at step size {step_size:g} without noise "
                 "or events on the default ground")
+    mine = _long_enough(mine)
+    if isinstance(mine, str):
+        return mine
     row = mine.iloc[0]
     done = int(row.runs - row.get("failed", 0) - row.get("missing", 0))
     experiments = _experiments_of(tables, row.condition_id)
@@ -335,7 +342,19 @@ def _conditions(tables: dict, experiment: str, **match) -> pd.DataFrame | str:
     if mine.empty:
         wanted = ", ".join(f"{k} {v}" for k, v in match.items())
         return f"the suite has no finished runs of {experiment}" + (f" with {wanted}" if wanted else "")
-    return mine
+    return _long_enough(mine)
+
+
+def _long_enough(mine: pd.DataFrame) -> pd.DataFrame | str:
+    """The conditions of ``mine`` (metrics rows) that learn for at least MIN_STEPS steps, or why there is none:
+    the suite is too small for the claim, which is then not measured (never a 'no')."""
+    if "steps" not in mine:
+        return mine
+    long = mine[mine.steps.astype(float) >= MIN_STEPS]
+    if long.empty:
+        return (f"too small a suite for it: its runs learn for {int(mine.steps.max())} steps, the claim is about "
+                f"learning done, measured on {MIN_STEPS} steps or more")
+    return long
 
 
 def _one(tables: dict, experiment: str, **match) -> tuple[pd.Series, str] | str:
