@@ -114,7 +114,7 @@ FRICTION_TARGETS: tuple[str, ...] = get_args(FrictionTarget)
 """the bodies a friction event changes: every body, the active units', or the passive ones' (the dummy's)."""
 InitialMemory = Literal["measure", "-inf", "zero"]
 INITIAL_MEMORY_CHOICES: tuple[str, ...] = get_args(InitialMemory)
-PhysicsBackend = Literal["auto", "pybullet", "quasistatic"]
+PhysicsBackend = Literal["auto", "pybullet", "quasistatic", "dynamic"]
 PHYSICS_BACKENDS: tuple[str, ...] = get_args(PhysicsBackend)
 VideoView = Literal["auto", "side", "top"]
 VIDEO_VIEWS: tuple[str, ...] = get_args(VideoView)
@@ -186,7 +186,7 @@ class ActuatorParams:
     ones too). A bellows is soft across as well as along; stiffer links need smaller PyBullet steps
     (docs/fidelity.md)."""
     shear_damping: float = param(0.3, between(1e-6, 1e3), "N s/m")
-    """N s/m, damping of that shear motion (PyBullet only: the quasi-static model has no rates)."""
+    """N s/m, damping of that shear motion (PyBullet and dynamic physics: the quasi-static model has no rates)."""
     bending_stiffness: float = param(0.1, between(1e-6, 100), "N m/rad")
     """N m/rad, stiffness of a link against its two bodies turning relative to each other across its axis: a body's
     friction torque (about 0.005 N m) bends a link by about 3 degrees."""
@@ -194,7 +194,7 @@ class ActuatorParams:
     """N m/rad, stiffness against the two bodies turning relative to each other about the link's axis (PyBullet
     only: the planar model has no twist)."""
     rotational_damping: float = param(2e-4, between(1e-9, 1), "N m s/rad")
-    """N m s/rad, damping of the relative rotation (PyBullet only)."""
+    """N m s/rad, damping of the relative rotation (PyBullet and dynamic physics)."""
     tau_inflate: float = param(0.3, between(1e-3, 100), "s")
     """s, pressure time constant while the pump runs."""
     tau_vent: float = param(0.3, between(1e-3, 100), "s")
@@ -215,7 +215,9 @@ class PhysicsParams:
     Coulomb friction without inertia, exact and fast, for any assembly in one layer on the ground (solved along the
     axis for a chain, morphbench.physics.quasistatic, and in the plane otherwise, morphbench.physics.planar);
     'auto': quasistatic where it applies, pybullet for stacks (and for the camera sensor, which renders a PyBullet
-    scene). The quasi-static model is the limit the PyBullet world converges to (docs/fidelity.md)."""
+    scene). The quasi-static model is the limit the PyBullet world converges to (docs/fidelity.md). 'dynamic': the
+    same springs with inertia, planar rigid bodies with stick-slip Coulomb friction integrated at ``dynamic_step``
+    (morphbench.physics.dynamic), for any assembly in one layer on the ground, at any friction; only when named."""
     timestep: float = param(1 / 120, between(1e-4, 0.1), "s")
     """s, physics step (quasistatic: the interval between solves; the solution depends on time only through the
     pressures)."""
@@ -232,6 +234,13 @@ class PhysicsParams:
     18% slower at 30 degrees); a turning grid turns with the cone about as the planar model says, with a small
     chirality (a body twisted counter-clockwise slides a little more easily), and hardly at all with the pyramid
     (docs/fidelity.md, "In the plane")."""
+    dynamic_step: float = param(1 / 240, between(1e-5, 0.1), "s", later=True)
+    """s, dynamic backend only: its integration step at most. Each tick of ``timestep`` is split into
+    ceil(timestep / dynamic_step) semi-implicit Euler steps (the bellows' rest lengths interpolated between the
+    ticks' ends). The explicit springs bound it: with the default stiffnesses and 50 g units a sheet's fastest mode is
+    205 rad/s, unstable at 1/120 s with the links' damping and stable from 1/180 s; at 1/240 s halving the step
+    changes the 2-unit curve by 0.004 mm/cycle rms (benchmarks/dynamic_fidelity.py measures both). Stiffer links or
+    lighter bodies need a smaller step (the fastest mode goes as sqrt(stiffness / mass))."""
 
 
 DEFAULT_PHYSICS = PhysicsParams()

@@ -7,8 +7,9 @@ import sys
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "morphbench"
-WORLD_CLASSES = {"World", "QuasiStaticWorld", "PlanarWorld", "QuasiStatic", "Bellows", "Copy", "Copies"}
-BACKEND_NAMES = {"pybullet", "quasistatic", "planar"}
+WORLD_CLASSES = {"World", "QuasiStaticWorld", "PlanarWorld", "DynamicWorld", "QuasiStatic", "Bellows", "Copy", "Copies",
+                 "DynamicCopies"}
+BACKEND_NAMES = {"pybullet", "quasistatic", "planar", "dynamic"}
 DECLARATIONS = {"params.py": "the backend choices and presets are data (PHYSICS_BACKENDS, PHYSICS_PRESETS)",
                 "bench/provenance.py": "'pybullet' there is the installed distribution whose version is recorded"}
 

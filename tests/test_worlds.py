@@ -24,6 +24,7 @@ WORLDS = {
     "quasistatic": ("chain-3", QUASISTATIC_PHYSICS, 1, "quasistatic"),
     "planar": ("grid-2x2", DEFAULT_PHYSICS, 1, "planar"),
     "copy": ("chain-3", DEFAULT_PHYSICS, 3, "quasistatic"),
+    "dynamic": ("grid-2x2", dataclasses.replace(DEFAULT_PHYSICS, backend="dynamic"), 1, "dynamic"),
 }
 TICKS = 60
 PHASES = (0.0, 0.3, 0.6, 0.9)

@@ -245,7 +245,7 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
     phases = scan_phases(shape.n_units, resolution, samples, seed)
     hashed = {"shape": shape_identity(shape), "resolution": resolution, "samples": samples if sampled else None,
               "seed": seed if sampled else None, "cycles": cycles, "discard": discard,
-              "physics": dataclasses.asdict(physics), "part_points": SCAN_PART_POINTS,
+              "physics": identity(physics), "part_points": SCAN_PART_POINTS,
               "environment": identity(environment)}  # the default one keeps earlier scans' ids
     if damage is not None:  # a healthy scan keeps the id it had before scans could be damaged
         hashed["damage"] = {"unit": damage.unit, "mode": damage.mode}

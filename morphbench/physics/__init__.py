@@ -1,9 +1,11 @@
 """Physics: the only package (with rendering) that talks to PyBullet.
 
-Three worlds behind one declared interface (``protocol.WorldInterface``: set phases, advance ticks, read poses;
-damage, cuts, friction; ``backend`` and ``scene``): the PyBullet ``World`` for any shape, and the quasi-static model
+Four worlds behind one declared interface (``protocol.WorldInterface``: set phases, advance ticks, read poses;
+damage, cuts, friction; ``backend`` and ``scene``): the PyBullet ``World`` for any shape; the quasi-static model
 (springs and Coulomb friction without inertia), solved exactly along a line by ``QuasiStaticWorld`` for chains and
-by ``PlanarWorld`` for any assembly in one layer on the ground; and the copies of a batch (``batch.Copy``).
+by ``PlanarWorld`` for any assembly in one layer on the ground; the same springs with inertia and sticking friction,
+``DynamicWorld``, integrated in steps linear in the assembly's size (only when named); and the copies of a batch
+(``batch.Copy``).
 ``make_world`` builds the one ``resolve_backend`` picks for a configuration, alone or as a ``Batch`` of copies.
 """
 
@@ -51,6 +53,7 @@ from morphbench.physics.pressure import pressure_trajectory, pump_on  # noqa: E4
 from morphbench.physics.quasistatic import QuasiStaticWorld, chain_axis  # noqa: E402
 from morphbench.physics.world import World  # noqa: E402
 from morphbench.physics.batch import Copies  # noqa: E402
+from morphbench.physics.dynamic import DynamicCopies, DynamicWorld, check_dynamic  # noqa: E402
 from morphbench.physics.protocol import Batch, Scene, Single, WorldInterface  # noqa: E402
 
 
@@ -78,6 +81,9 @@ def _resolve(shape, physics: PhysicsParams, environment: EnvironmentParams, scen
         raise ConfigError("physics", "backend", f"one of {', '.join(PHYSICS_BACKENDS)}", physics.backend)
     if physics.backend == "pybullet":
         return World.backend, physics
+    if physics.backend == DynamicWorld.backend:  # only when named: any one-layer shape, at any friction
+        check_dynamic(shape)
+        return DynamicWorld.backend, physics
     try:
         backend = _quasistatic_backend(shape)
     except ConfigError:
@@ -107,10 +113,11 @@ def quasistatic_world(shape, physics: PhysicsParams, environment: EnvironmentPar
     return BACKENDS[_quasistatic_backend(shape)](shape, physics, environment)
 
 
-BACKENDS = {World.backend: World, QuasiStaticWorld.backend: QuasiStaticWorld, PlanarWorld.backend: PlanarWorld}
+BACKENDS = {World.backend: World, QuasiStaticWorld.backend: QuasiStaticWorld, PlanarWorld.backend: PlanarWorld,
+            DynamicWorld.backend: DynamicWorld}
 """Every world class by the backend name ``resolve_backend`` gives: a new backend is one module and one entry here
 (and its choice in params.PHYSICS_BACKENDS, its rule in ``resolve_backend``)."""
-BATCHING = {QuasiStaticWorld.backend: Copies}
+BATCHING = {QuasiStaticWorld.backend: Copies, DynamicWorld.backend: DynamicCopies}
 """The backends that hold a batch's copies in one world, and the batch that does."""
 
 

@@ -1,5 +1,5 @@
-"""Copies of one assembly in one quasi-static chain world, one per run of a batch, so that the simulator is called
-once per learning step for all of them.
+"""Copies of one assembly in one world (the quasi-static chain's, or the dynamic one's), one per run of a batch, so
+that the simulator is called once per learning step for all of them.
 
 Each copy of the assembly is its own piece of the batched world (copies share no link, so the solver treats them one
 by one, with the same arithmetic as a world of one): a run on its copy gives the records it gives alone, bit for bit
@@ -30,10 +30,13 @@ def copies_of(shape: Shape, count: int) -> Shape:
 
 
 class Copies(Batch):
-    """``count`` copies of ``shape`` in one QuasiStaticWorld; ``worlds`` are the copies' views."""
+    """``count`` copies of ``shape`` in one world of ``world_class`` (a backend whose bodies move by their own
+    arithmetic, so a copy moves as it does alone); ``worlds`` are the copies' views."""
+
+    world_class = QuasiStaticWorld
 
     def __init__(self, shape: Shape, physics, environment, count: int):
-        self.world = QuasiStaticWorld(copies_of(shape, count), physics, environment)
+        self.world = self.world_class(copies_of(shape, count), physics, environment)
         self.n_units = shape.n_units
         self.worlds = [Copy(self, index, shape) for index in range(count)]
         self._poses: tuple[np.ndarray, np.ndarray] | None = None
@@ -82,11 +85,11 @@ class Copy:
     """What one run sees of a batched world: its own copy's bodies, units and links, the shared clock. The batch
     advances every copy at once, so a copy cannot be advanced alone."""
 
-    backend = QuasiStaticWorld.backend
     scene: Scene | None = None
 
     def __init__(self, batch: Copies, index: int, shape: Shape):
         self.batch, self.world, self.shape = batch, batch.world, shape
+        self.backend = batch.world.backend
         world = batch.world
         self._bodies = index * len(shape.bodies)
         self._units = index * shape.n_units

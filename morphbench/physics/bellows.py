@@ -118,6 +118,17 @@ class Bellows:
         return np.array([u >= 0 and self.damage[u] not in ("no-inflate", "open", "dead") for u in self.link_units],
                         dtype=float)
 
+    def _friction_limits(self, start: float, n_ticks: int, pumps: bool) -> np.ndarray:
+        """(n_ticks, n_bodies) N, each body's friction limit on a uniform ground over the coming ticks: its friction
+        times its scale and weight, a pumping unit's times the vibration (the field is read by the solvers at the
+        bodies' places)."""
+        friction = self._base_friction * self._friction_scale
+        if pumps and self.environment.vibration != 1.0:
+            friction = np.repeat(friction[None], n_ticks, axis=0)
+            friction[:, self._unit_bodies] *= np.where(self._pumping(start, n_ticks), self.environment.vibration, 1.0)
+            return friction * self._weights
+        return np.broadcast_to(friction * self._weights, (n_ticks, len(friction)))
+
     def _pumping(self, start: float, n_ticks: int) -> np.ndarray:
         """(n_ticks, n_units) whether each unit's pump runs at the start of each coming tick (a dead one never)."""
         t = start + self.tick * np.arange(n_ticks)
@@ -286,13 +297,7 @@ class QuasiStatic(Bellows):
         start = self.time
         trajectory = self._pressures(start, n_ticks, pumps)
         lengths = self._rest_lengths(trajectory)  # (n_ticks, n_links)
-        friction = self._base_friction * self._friction_scale
-        if pumps and self.environment.vibration != 1.0:
-            friction = np.repeat(friction[None], n_ticks, axis=0)
-            friction[:, self._unit_bodies] *= np.where(self._pumping(start, n_ticks), self.environment.vibration, 1.0)
-            limits = friction * self._weights
-        else:
-            limits = np.broadcast_to(friction * self._weights, (n_ticks, len(friction)))
+        limits = self._friction_limits(start, n_ticks, pumps)
         ends = list(range(every, n_ticks, every)) + [n_ticks] if on_tick is not None else [n_ticks]
         begin = 0
         for end in ends:
