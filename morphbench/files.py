@@ -244,6 +244,17 @@ def is_dir(path: str | os.PathLike) -> bool:
         return False
 
 
+def present(path: str | os.PathLike) -> bool:
+    """Whether anything is at ``path`` (a file, a directory, a symlink even if broken). Where ``os.path.lexists``
+    says False, a path this process may not look at (a directory above it it may not search) raises
+    PermissionError: a directory it may not read is not an empty one."""
+    try:
+        os.lstat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return False
+    return True
+
+
 def check_path(text: str, source: str, key: str | None = None, room: int = 0) -> Path:
     """``text`` as a Path if the file system can take it: no NUL byte, each name at most NAME_MAX (less ``room``
     characters for a temporary name made from it) and the whole at most PATH_MAX; else ConfigError naming ``source``

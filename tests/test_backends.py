@@ -1,5 +1,7 @@
 """Two backends side by side: conditions paired across results directories, differences and disagreements."""
 
+import shutil
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -7,6 +9,7 @@ import pytest
 from morphbench.bench import LocalExecutor, load_suite, run_suite
 from morphbench.bench.backends import TABLE, compare, section
 from morphbench.bench.report import build_report
+from morphbench.errors import ConfigError
 
 from conftest import TINY, run_cli, write_suite
 
@@ -131,3 +134,31 @@ def test_the_paper_claims_sections_count_as_the_report_and_list_what_fails(two_b
     pages["paper"].write_text("# no markers\n")
     with pytest.raises(ConfigError, match="paper.md"):
         module.main([str(results)])
+
+
+@pytest.mark.parametrize("name, key", [("metrics", "condition_id"), ("runs", "run_id")])
+def test_a_row_twice_is_refused_naming_the_file(two_backends, tmp_path, capsys, name, key):
+    """Each condition would be paired twice (two conditions, four pairs) and the comparison written as sound."""
+    a = metrics_dir(tmp_path / "a", [1.0, 1.2], [0.1, 0.1])
+    b = metrics_dir(tmp_path / "b", [1.1, 1.3], [0.1, 0.1], physics="fast")
+    assert len(compare(a, b)) == 2
+    table = pd.read_parquet(b / f"{name}.parquet")
+    pd.concat([table, table.iloc[:1]]).to_parquet(b / f"{name}.parquet")
+    with pytest.raises(ConfigError, match=rf"^{b}: {name}.parquet: expected one row per {key}, got c0 2 times$"):
+        compare(a, b)
+    target = tmp_path / "target"
+    shutil.copytree(two_backends[0], target, ignore=shutil.ignore_patterns(f"{TABLE}.parquet"))
+    code, _, err = run_cli(capsys, "report", str(target), "--compare", str(a), str(b), "--no-videos")
+    assert code == 2 and f"{b}: {name}.parquet: expected one row per {key}" in err and "Traceback" not in err
+    assert not (target / f"{TABLE}.parquet").exists()
+
+
+def test_a_directory_compared_with_itself_is_refused(two_backends, tmp_path, capsys):
+    results = two_backends[0]
+    (tmp_path / "link").symlink_to(results)
+    for spelling in (results, f"{results}/", results / ".." / results.name, tmp_path / "link"):
+        with pytest.raises(ConfigError, match=r"^--compare: .*: expected a results directory other than "):
+            compare(results, spelling)
+    code, _, err = run_cli(capsys, "report", str(results), "--compare", str(results), str(tmp_path / "link"))
+    assert code == 2 and "the same directory compared with itself" in err and "Traceback" not in err
+    assert len(compare(*two_backends)) == 4  # two directories are still compared

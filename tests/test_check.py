@@ -5,10 +5,12 @@ bench gives the tables of the undamaged directory again."""
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import tempfile
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -18,6 +20,7 @@ from fuzz_results import DAMAGES, Inline
 from morphbench.bench import load_suite, run_suite
 from morphbench.bench.store import DAMAGED, JOB_SCHEMAS, TABLES, Store, check_plan
 from morphbench.experiment.records import STEP_COLUMNS, UNIT_COLUMNS
+from morphbench.render.writers import H264Writer
 
 from conftest import BENCHMARKS_DIR, run_cli
 
@@ -195,3 +198,124 @@ def test_generated_cases_keep_the_promise():
         with tempfile.TemporaryDirectory() as directory:
             outcome = fuzzing.run_case(case, Path(directory) / "case", timeout_s=60)
         assert fuzz_results.verdict(outcome) in ("accepted", "refused"), (case.short(), outcome.verdict, outcome.err)
+
+
+def edit_summary(root: Path, run_id: str, edit) -> Path:
+    path = root / "runs" / run_id / "result.json"
+    result = json.loads(path.read_text())
+    edit(result["summary"])
+    path.write_text(json.dumps(result))  # NaN as JSON's NaN, as json.dumps writes a summary
+    return path
+
+
+@pytest.mark.parametrize("edit, expected", [
+    (lambda s: s.update(final_ubar=math.nan), "expected summary.final_ubar a finite number, got nan"),
+    (lambda s: s.update(final_ubar_true=None), "expected summary.final_ubar_true a finite number, got None"),
+    (lambda s: s.update(colour="red"), "expected summary keys among a run's (config, seed, "),
+    (lambda s: s.pop("config"), "expected summary.config, an object (every run's summary has it), got none"),
+    (lambda s: s.update(centralized="no"), "expected summary.centralized a boolean or null, got 'no'"),
+], ids=["final NaN", "final null", "unknown key", "no config", "centralized text"])
+def test_a_summary_out_of_its_schema_is_damage(edit, expected, finished, tmp_path, capsys):
+    """A done run's summary (store.SUMMARY_SCHEMA), once the tables were rebuilt from it: the job itself is damaged,
+    not only a stale runs table."""
+    suite, source, _ = finished
+    root = tmp_path / "R"
+    shutil.copytree(source, root)
+    run_id = json.loads((root / "plan.json").read_text())["runs"][0]["id"]
+    path = edit_summary(root, run_id, edit)
+    code, out, err = run_cli(capsys, "check", str(root))
+    assert code == 1 and err == "", out + err
+    assert out.splitlines()[0].startswith(f"run {run_id}: {path.relative_to(root)}: {expected}"), out
+    code, _, err = run_cli(capsys, "report", str(root), "--no-videos")
+    assert code == 0 and "1 damaged jobs left out" in one_line(err)
+    assert pd.read_parquet(root / "runs.parquet").set_index("run_id").status[run_id] == DAMAGED
+
+
+def test_the_nan_final_values_of_a_run_without_learning_steps_are_no_damage(tmp_path, capsys):
+    """final Ubar averages the learning steps: a run of none has NaN, as its records write it."""
+    suite = tmp_path / "zero.toml"
+    suite.write_text(fuzz_results.SUITE.replace("steps = 3", "steps = 0"))
+    root = tmp_path / "R"
+    run_suite(load_suite(suite), root, Inline(), progress=False)
+    summaries = [json.loads(path.read_text())["summary"] for path in (root / "runs").glob("*/result.json")]
+    assert summaries and all(math.isnan(s["final_ubar"]) and s["steps"] == 0 for s in summaries)
+    code, out, _ = run_cli(capsys, "check", str(root))
+    assert code == 0 and "no damage" in out, out
+
+
+def with_rows_of(root: Path, run_ids: list[str]) -> pd.DataFrame:
+    """Append to the consolidated steps and units tables a copy of the first run's rows under each of ``run_ids``;
+    the units table as it was before."""
+    before = {}
+    for name in ("steps", "units"):
+        table = pd.read_parquet(root / f"{name}.parquet")
+        first = table[table.run_id == table.run_id.iloc[0]]
+        before[name] = table
+        pd.concat([table, *(first.assign(run_id=run_id) for run_id in run_ids)]).to_parquet(
+            root / f"{name}.parquet", index=False)
+    return before["units"]
+
+
+def test_rows_of_runs_neither_the_plan_nor_runs_has_are_found_and_set_aside(finished, tmp_path, capsys):
+    """Rows that no consolidation keeps (it writes a run's rows back only into its directory): check names them,
+    --repair and the report move them aside rather than drop them, and a run id that is a path writes nowhere."""
+    suite, source, expected = finished
+    root = tmp_path / "a" / "R"
+    shutil.copytree(source, root)
+    strangers = ["ffffffffffff", "../../evil"]
+    units = with_rows_of(root, strangers)
+    code, out, _ = run_cli(capsys, "check", str(root))
+    assert code == 1
+    for run_id, shown in zip(strangers, ["ffffffffffff", "'../../evil'"]):
+        for name in ("steps", "units"):
+            assert f"run {shown}: {name}.parquet: expected the rows of the plan's runs" in out, out
+
+    report = tmp_path / "b" / "R"  # the report sets them aside, as its consolidation does an unreadable table
+    shutil.copytree(root, report)
+    code, _, err = run_cli(capsys, "report", str(report), "--no-videos")
+    assert code == 0 and err == ""
+    aside = pd.read_parquet(next((report / "damaged").glob("*/units.parquet")))
+    first = (units.run_id == units.run_id[0]).sum()
+    assert sorted(aside.run_id.unique()) == sorted(strangers) and len(aside) == 2 * first
+    assert_same_tables(Store(report).consolidate(write=False), expected)
+
+    code, out, _ = run_cli(capsys, "check", str(root), "--repair")
+    assert code == 1 and "moved the rows of runs the plan does not list in units.parquet to damaged/" in out
+    assert "to run the moved jobs again" not in out  # no job went
+    pd.testing.assert_frame_equal(pd.read_parquet(root / "units.parquet"), units)
+    assert_same_tables(Store(root).consolidate(write=False), expected)
+    for name in ("steps", "units"):
+        aside = pd.read_parquet(next((root / "damaged").glob(f"*/{name}.parquet")))
+        assert sorted(aside.run_id.unique()) == sorted(strangers)
+    code, out, _ = run_cli(capsys, "check", str(root))
+    assert code == 0, out
+    assert not list(tmp_path.rglob("*evil*"))
+
+
+def write_video(path: Path) -> Path:
+    """A few frames of H.264, as a report's video is written."""
+    path.parent.mkdir(exist_ok=True)
+    writer = H264Writer(path, (16, 16), 10, path, "test")
+    for _ in range(5):
+        writer.write(np.zeros((16, 16, 3), "uint8"))
+    writer.close()
+    return path
+
+
+def test_a_cached_video_that_does_not_decode_is_damage_and_goes_aside(finished, tmp_path, capsys):
+    _, source, _ = finished
+    root = tmp_path / "R"
+    shutil.copytree(source, root)
+    video = write_video(root / "videos" / "pair.mp4")
+    code, out, _ = run_cli(capsys, "check", str(root))
+    assert code == 0, out
+    for damage in (b"not a video\n", video.read_bytes()[:len(video.read_bytes()) // 2]):
+        video.write_bytes(damage)
+        code, out, _ = run_cli(capsys, "check", str(root))
+        assert code == 1 and out.startswith("videos/pair.mp4: expected a video PyAV decodes ("), out
+    code, out, _ = run_cli(capsys, "check", str(root), "--repair")
+    assert code == 1 and "moved videos/pair.mp4 to damaged/" in out
+    assert "removed" not in out and (root / "runs.parquet").is_file()  # a video makes no table stale
+    assert [p.read_bytes() for p in (root / "damaged").glob("*/videos/pair.mp4")] == [damage]
+    code, out, _ = run_cli(capsys, "check", str(root))
+    assert code == 0, out

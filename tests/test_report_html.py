@@ -27,7 +27,7 @@ from morphbench.bench import build_report
 from morphbench.bench import html as page_module
 from morphbench.bench import report as report_module
 from morphbench.bench.provenance import read_sessions, software_versions
-from morphbench.bench.videos import Video, pick_runs, steps_to_show
+from morphbench.bench.videos import Video, pick_runs, steps_to_show, video_problem
 from morphbench.render.writers import H264Writer
 
 from conftest import ROOT, run_cli
@@ -205,6 +205,18 @@ def test_videos_are_reused_and_can_be_left_out(page, capsys, monkeypatch):
     text = (out / "report.html").read_text()
     assert "<video" not in text and "Videos were not rendered (<code>--no-videos</code>)" in text
     assert 'href="#pair"' in text
+
+
+def test_a_cached_video_that_does_not_decode_is_rendered_again(page, tmp_path):
+    """Its record still says it shows the same run: reused, it would be embedded as it is."""
+    out = tmp_path / "results"
+    shutil.copytree(page[0], out)
+    (out / "videos" / "pair.mp4").write_text("not a video\n")
+    build_report(out, videos=True)
+    video = (out / "videos" / "pair.mp4").read_bytes()
+    assert video_problem(out / "videos" / "pair.mp4") is None
+    text = (out / "report.html").read_text()
+    assert "Videos: 1 rendered" in text and f'src="data:video/mp4;base64,{base64.b64encode(video).decode()}"' in text
 
 
 def test_a_replay_that_fails_is_said_on_the_page(reference, tmp_path):

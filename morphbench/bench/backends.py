@@ -9,12 +9,14 @@ Final Ubar has a standard error over seeds in each directory; the pair **disagre
 ``DISAGREE_SE`` combined standard errors, sqrt(std_a^2 / n_a + std_b^2 / n_b), so a difference that seed noise explains
 is not called one. ``morphbench report DIR --compare A B`` keeps the table as ``DIR/backends.parquet``, and the
 report of DIR shows it from then on (``section``). A table that is unreadable, lacks a column ``compare`` or a report
-reads, or holds an infinity is a ConfigError naming the file: nothing is compared or written.
+reads, holds an infinity or a row twice (a condition, a run) is a ConfigError naming the file, and so is a directory
+compared with itself: nothing is compared or written.
 """
 
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -35,15 +37,20 @@ TABLE = "backends"
 SHOWN = ("physics_a", "physics_b", "runs_a", "runs_b", "disagree",
          *(f"{column}_{side}" for column in COMPARED for side in ("a", "b", "diff")))
 """the columns of backends.parquet a report shows (``section``)."""
-_READ = {"metrics": ("condition_id", "physics", "runs", "failed", "missing", "final_ubar_std", *COMPARED),
-         "runs": ("condition_id", "experiments")}
-"""the columns ``compare`` reads of each table of a results directory."""
+_READ = {"metrics": ("condition_id", ("condition_id", "physics", "runs", "failed", "missing", "final_ubar_std",
+                                       *COMPARED)),
+         "runs": ("run_id", ("run_id", "condition_id", "experiments"))}
+"""per table of a results directory ``compare`` reads: the column that names a row (each value once) and the
+columns it reads."""
 _NOT_CONDITION = {"condition_id", "physics", "backend", "shape_id", "environment_id"}
 _LABEL_COLUMNS = ("experiments", "shape", "learner", "step_size", "noise", "environment", "events", "steps")
 
 
 def compare(a: str | Path, b: str | Path) -> pd.DataFrame:
     """One row per condition found in both results directories (see the module doc)."""
+    if _same(a, b):
+        raise ConfigError("--compare", str(b), f"a results directory other than {a} (the same directory compared "
+                                               "with itself)")
     (ma, ra), (mb, _) = _read(a), _read(b)
     for table in (ma, mb):  # a U_eq without a plateau is an extrapolation, as in the report's own tables
         if "plateau" in table:
@@ -112,14 +119,22 @@ def _read(directory: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
     """A results directory's metrics and runs tables, with the columns ``compare`` reads."""
     root = Path(directory)
     tables = []
-    for name, columns in _READ.items():
+    for name, (key, columns) in _READ.items():
         path = root / f"{name}.parquet"
         if not is_file(path):
             raise ConfigError(str(root), f"{name}.parquet", "a results directory with its report built (morphbench "
                               "bench, or morphbench report DIR)", "no such file")
-        numeric = [c for c in columns if c not in ("condition_id", "physics", "experiments")]
-        tables.append(_table(path, lambda table, c=columns, n=numeric: _problem(table, c, n)))
+        numeric = [c for c in columns if c not in ("run_id", "condition_id", "physics", "experiments")]
+        tables.append(_table(path, lambda table, c=columns, n=numeric, k=key: _problem(table, c, n, k)))
     return tables[0], tables[1]
+
+
+def _same(a: str | Path, b: str | Path) -> bool:
+    """Whether ``a`` and ``b`` are one directory, however spelled (a symlink, a trailing slash, ..)."""
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):  # one is missing (its own message follows) or no path at all
+        return False
 
 
 def _table(path: Path, problem) -> pd.DataFrame:
@@ -135,11 +150,15 @@ def _table(path: Path, problem) -> pd.DataFrame:
     return table
 
 
-def _problem(table: pd.DataFrame, columns, numeric) -> str | None:
-    """Why ``table`` lacks one of ``columns`` or holds something but numbers (finite or NaN) in ``numeric``."""
+def _problem(table: pd.DataFrame, columns, numeric, key: str | None = None) -> str | None:
+    """Why ``table`` lacks one of ``columns``, holds something but numbers (finite or NaN) in ``numeric`` or holds a
+    value of ``key`` twice (a row repeated: it would be compared twice)."""
     missing = [c for c in columns if c not in table.columns]
     if missing:
         return f"the columns {', '.join(columns)}; no {missing[0]}"
+    if key is not None and table[key].duplicated().any():
+        twice = table[key][table[key].duplicated()].iloc[0]
+        return f"one row per {key}, got {_text(twice)} {int((table[key] == twice).sum())} times"
     for column in numeric:
         if not pd.api.types.is_numeric_dtype(table[column]):  # bools are numbers here
             return f"numbers in column {column}, got {table[column].dtype}"

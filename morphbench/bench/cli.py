@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import sys
 
@@ -64,7 +65,8 @@ def add_bench_commands(subparsers) -> None:
         "check", help="check a results directory against its plan; --repair moves damaged jobs aside",
         description="Check every job directory (result.json, each Parquet table's columns, types and values), "
                     "plan.json and the consolidated tables of DIR; print each damaged job or file with what was "
-                    "expected, one line each. Exit 0 if clean, 1 if damaged, 2 if DIR is not a results directory.")
+                    "expected, one line each. Exit 0 if clean, 1 if damaged, 2 if DIR is not a results directory "
+                    "or this user may not read it (its modes are no damage: nothing is moved for them).")
     check.add_argument("dir", help="results directory written by 'morphbench bench'")
     check.add_argument("--repair", action="store_true",
                        help="move damaged jobs and files into DIR/damaged/<time>/ (nothing is deleted) and drop the "
@@ -93,6 +95,23 @@ def add_bench_commands(subparsers) -> None:
     board.set_defaults(func=cmd_leaderboard)
 
 
+def _permitted(command):
+    """``command``, but a file or directory this user may not read or write (PermissionError, wherever it comes
+    from) is a ConfigError naming it (store.Unreadable): one line, not a traceback."""
+
+    @functools.wraps(command)
+    def guarded(args) -> int:
+        try:
+            return command(args)
+        except PermissionError as exc:
+            from morphbench.bench.store import Unreadable
+
+            raise Unreadable(exc.filename or getattr(args, "dir", None) or args.out) from None
+
+    return guarded
+
+
+@_permitted
 def cmd_bench(args) -> int:
     from morphbench.bench.executors import DaskExecutor, LocalExecutor, connect
     from morphbench.bench.runner import writing
@@ -119,8 +138,11 @@ def cmd_bench(args) -> int:
 
 def _bench(args, suite, executor) -> int:
     """Run the suite, say how it went, report; the exit code."""
-    from morphbench.bench.report import build_report
+    from morphbench.bench.report import build_report, require_outputs
     from morphbench.bench.runner import run_suite
+
+    if not args.no_report:  # before the suite runs, not after
+        require_outputs(args.out, videos=not args.no_videos)
 
     outcome = run_suite(suite, args.out, executor, resume=args.resume, retry_failed=args.retry_failed,
                         progress=not args.quiet)
@@ -138,10 +160,11 @@ def _bench(args, suite, executor) -> int:
     return EXIT_FAILED_RUNS if (runs.status == "failed").any() or outcome.failed else 0
 
 
+@_permitted
 def cmd_report(args) -> int:
     import pandas as pd
 
-    from morphbench.bench.report import build_report
+    from morphbench.bench.report import build_report, require_outputs
     from morphbench.bench.store import Store
     from morphbench.errors import ConfigError
 
@@ -151,6 +174,7 @@ def cmd_report(args) -> int:
     store = Store(args.dir)
     store.require_plan()  # a damaged results directory refuses before anything is compared or written
     store.require_layout()
+    require_outputs(store.root, videos=not args.no_videos)  # before the comparison is written
     if args.compare:
         from morphbench.bench.backends import TABLE, compare
 
@@ -171,6 +195,7 @@ def _warn_damaged(jobs, directory: str) -> None:
               f"{directory}' lists them, with --repair it moves them aside)", file=sys.stderr)
 
 
+@_permitted
 def cmd_check(args) -> int:
     from morphbench.bench.check import run
 

@@ -21,9 +21,10 @@ and ``scan-<name>.png`` per scan (a curve for 2 units, a heat map for 3, a histo
 holds the tables and figures, a comparison of decentralized learners with centralized controllers when the suite
 has both, the paper's claims checked against the tables (morphbench.bench.claims), the failed runs with their
 errors and the damaged jobs (morphbench.bench.store: left out of every table, each with its file and what was
-expected). A damaged plan.json, ``runs/`` or backends.parquet is a ConfigError before anything is written. A figure
-the tables cannot give (an experiment without finished runs, results stored before a column existed, an unfinished
-scan) is left out with a line saying why.
+expected). A damaged plan.json, ``runs/`` or backends.parquet is a ConfigError before anything is written, and so is
+a path the report writes that holds the other kind (a directory at report.md, a file at figures/: ``require_outputs``).
+A figure the tables cannot give (an experiment without finished runs, results stored before a column existed, an
+unfinished scan) is left out with a line saying why.
 """
 
 from __future__ import annotations
@@ -45,13 +46,18 @@ from morphbench.bench import claims as C  # noqa: E402
 from morphbench.bench import figures as F  # noqa: E402
 from morphbench.bench import metrics as M  # noqa: E402
 from morphbench.bench.html import start_videos, write_html  # noqa: E402
-from morphbench.bench.store import DAMAGED, Store  # noqa: E402
-from morphbench.files import write_text  # noqa: E402
+from morphbench.bench.store import ABSORBED, DAMAGED, TABLES, Store  # noqa: E402
+from morphbench.bench.videos import VIDEO_DIR  # noqa: E402
+from morphbench.errors import ConfigError  # noqa: E402
+from morphbench.files import present, write_text  # noqa: E402
 
 MAX_POSITION_RUNS = 6
 """runs drawn at most in a figure of start and end positions."""
 MAX_CURVES = 12
 """conditions drawn at most as lines of one plot."""
+FIGURES = "figures"
+WRITTEN_INSIDE = {FIGURES: ("*.png",), VIDEO_DIR: ("*.mp4", "*.json")}
+"""the report's directories, and the files in them it replaces or removes."""
 
 
 def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None, videos: bool = False) -> Path:
@@ -59,6 +65,7 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None,
     store = Store(out)
     plan = store.require_plan()  # a damaged plan, runs/ or backends table refuses before anything is written
     store.require_layout()
+    require_outputs(store.root, videos=bool(videos))
     backends = B.read_table(store.root)
     tables = tables or store.consolidate(plan)
     runs, steps, scans = tables["runs"], tables["steps"], tables["scans"]
@@ -67,7 +74,7 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None,
     store.write_table("curves", curves)
     store.write_table("metrics", metrics)
     videos = start_videos(store.root) if videos else False  # rendered while the report is written
-    figures = store.root / "figures"
+    figures = store.root / FIGURES
     figures.mkdir(exist_ok=True)
     for old in figures.glob("*.png"):
         old.unlink()
@@ -126,6 +133,25 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None,
     write_text(path, "\n".join(lines) + "\n")
     write_html(store.root, videos=videos)  # report.html: this report as one page, with a video per experiment
     return path
+
+
+def require_outputs(root: str | Path, videos: bool = False) -> None:
+    """ConfigError naming the first path the report (with ``videos``, its videos too) writes that holds the other
+    kind: a directory where it writes a file (a table, report.md, a figure), a file where it writes into a directory
+    (figures/, videos/). Writing would fail half-way or lose it, so nothing is written, and it is not moved (no
+    results data: whoever put it there moves it)."""
+    root = Path(root)
+    files = [f"{name}.parquet" for name in (*TABLES, "curves", "metrics", B.TABLE) if name not in ABSORBED]
+    files += ["report.md", "report.html"]  # (an unreadable steps or units table is set aside: store.consolidate)
+    for name in [FIGURES, VIDEO_DIR] if videos else [FIGURES]:
+        folder = root / name
+        if present(folder) and not folder.is_dir():
+            raise ConfigError(str(root), name, "a directory the report writes its files into, got a file (move it "
+                                               "away)")
+        files += [f"{name}/{path.name}" for pattern in WRITTEN_INSIDE[name] for path in sorted(folder.glob(pattern))]
+    for name in files:
+        if (root / name).is_dir():
+            raise ConfigError(str(root), name, "a file the report writes over, got a directory (move it away)")
 
 
 def _damaged_section(damaged: pd.DataFrame) -> list[str]:

@@ -41,7 +41,10 @@ tables are written, consolidating removes the runs' own copies; it first writes 
 run the plan no longer lists (a suite resumed into the directory of another), so that nothing of a finished job is
 lost. A results directory of an older morphbench (each run's tables in its directory and in the consolidated
 tables) is read as it is, and the next consolidation (``bench`` or ``report``) removes the copies. A consolidated
-steps or units table that cannot be read is set aside into DIR/damaged/, never written over (its runs are damaged).
+steps or units table that cannot be read is set aside into DIR/damaged/, never written over (its runs are damaged),
+and so are its rows of runs that neither the plan lists nor runs/ holds (``orphans``: rows no directory takes back).
+A file or directory this process may not read or write for its permissions is no damage: ``Unreadable``, a
+ConfigError, refuses (nothing is set aside for it).
 ``wall_time_s`` is the only column that changes from one execution to the next.
 """
 
@@ -62,18 +65,34 @@ from typing import Any, Iterator
 import numpy as np
 import pandas as pd
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from morphbench.errors import ConfigError
 from morphbench.failures import describe
 from morphbench.experiment.records import STEP_COLUMNS, atomic_write
-from morphbench.files import is_stale
+from morphbench.files import is_stale, present
 
 KIND_DIRS = {"run": "runs", "scan": "scans"}
 RESULT = "result.json"
 PLAN = "plan.json"
 SUMMARY_COLUMNS = ("final_ubar", "final_ubar_true", "mean_acceptance", "sensor_error", "final_u_heading",
                    "turning_rate_deg_per_cycle", "centralized")
+"""the summary values the runs table has a column of."""
+NUMBER, COUNT, INTEGER, BOOLEAN, TEXT, OBJECT, LIST = "a number", "an integer >= 0", "an integer", "a boolean", \
+    "a string", "an object", "a list"
+SUMMARY_SCHEMA: dict[str, tuple[str, bool, bool]] = {
+    "config": (OBJECT, True, True), "seed": (INTEGER, True, True), "n_units": (COUNT, True, True),
+    "steps": (COUNT, True, True), "final_ubar": (NUMBER, True, True), "final_ubar_true": (NUMBER, True, True),
+    "mean_acceptance": (NUMBER, True, False), "sensor_error": (NUMBER, True, False),
+    "wall_time_s": (NUMBER, True, False), "final_ubar_by_piece": (OBJECT, False, False), "events": (LIST, False, False),
+    "final_u_heading": (NUMBER, False, False), "turning_rate_deg_per_cycle": (NUMBER, False, False),
+    "centralized": (BOOLEAN, False, False), "backend": (TEXT, False, False),
+}
+"""A done run's summary (experiment/records.py), key -> (kind, required, finite), as JOB_SCHEMAS its tables: no other
+key; 'required': every summary has it (keys the records gained later may be absent from results stored before them);
+'finite': never null, and a number never NaN, but for the final values of a run of no learning step (NaN: nothing
+to average); else null, and NaN for a number, stand for no value. No number is ever infinite."""
 STATUSES = ("done", "failed")
 """what a finished job's result.json says; in the tables a job may also be 'missing' (no directory yet) or
 DAMAGED."""
@@ -121,6 +140,9 @@ class Damage:
     """'expected ..., got ...' or 'KEY: expected ...'."""
     kind: str | None = None
     job_id: str | None = None
+    rows: bool = False
+    """whether what is damaged is the rows of run ``job_id`` in the consolidated table ``path`` (Store.orphans):
+    they go aside alone, not the table."""
 
     def where(self, root: Path) -> str:
         """The path relative to ``root``."""
@@ -130,7 +152,9 @@ class Damage:
             return str(self.path)
 
     def line(self, root: Path) -> str:
-        job = f"{self.kind} {self.job_id}: " if self.job_id else ""
+        # a run id read from a table may be any text: shown as a plain name or quoted, on one line
+        shown = self.job_id if self.job_id and SAFE_NAME.match(self.job_id) else _short(self.job_id)
+        job = f"{self.kind} {shown}: " if self.job_id else ""
         return f"{job}{self.where(root)}: {self.reason}"
 
 
@@ -143,6 +167,27 @@ class Loaded:
     result: dict | None = None
     tables: dict[str, pa.Table] = field(default_factory=dict)
     damage: Damage | None = None
+
+
+class Unreadable(ConfigError):
+    """A file or directory of a results directory that this process may not read or write for its permissions (its
+    mode or owner), not for its content: refused in one line, never taken for damage (nothing is set aside for it)."""
+
+    def __init__(self, path: str | Path):
+        super().__init__(str(_refusing(Path(path))), "(permissions)", "a file or directory this user may read and "
+                         "write (permission denied: its mode or owner, not its content; chmod it or run as its owner)")
+
+
+def _refusing(path: Path) -> Path:
+    """The directory above ``path`` that this user may not search, if one is (it is what to chmod), else ``path``."""
+    for parent, child in zip(reversed(path.parents), [*reversed(path.parents)][1:] + [path]):
+        try:
+            os.lstat(child)
+        except PermissionError:
+            return parent
+        except OSError:
+            break
+    return path
 
 
 class _Bad(Exception):
@@ -178,7 +223,7 @@ class Store:
                 names = ABSORBED if kind == "run" else ("points",)
                 for name in names:
                     path = directory / f"{name}.parquet"
-                    absorbed = kind == "run" and not os.path.lexists(path)
+                    absorbed = kind == "run" and not present(path)
                     read[name] = self._rows(name, job_id) if absorbed else _read_table(path, n_units)
                 if kind == "run":
                     _check_counts(read, result["summary"], directory)
@@ -197,7 +242,7 @@ class Store:
         found = []
         for sub in KIND_DIRS.values():
             path = self.root / sub
-            if (path.exists() or path.is_symlink()) and not path.is_dir():
+            if present(path) and not path.is_dir():
                 found.append(Damage(path, "expected a directory of job directories, got a file"))
         return found
 
@@ -237,20 +282,41 @@ class Store:
                 shutil.rmtree(tmp)
         return final
 
-    def set_aside(self, paths: list[Path]) -> list[Path]:
-        """Move ``paths`` (inside the directory) into a new DIR/damaged/<UTC time>/ under their own relative paths,
-        each whole (a rename); their new paths."""
-        stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
-        folder, k = self.root / DAMAGED_DIR / stamp, 1
-        while folder.exists():
-            folder, k = self.root / DAMAGED_DIR / f"{stamp}-{k}", k + 1
-        moved = []
+    def set_aside(self, paths: list[Path], folder: Path | None = None) -> list[Path]:
+        """Move ``paths`` (inside the directory) into ``folder`` (by default a new ``aside_folder``) under their own
+        relative paths, each whole (a rename); their new paths. All or nothing: a path that cannot be moved (this
+        user may not write there) is a ConfigError naming it, the ones moved before it moved back."""
+        if not paths:
+            return []
+        folder = folder or self.aside_folder()
+        moved: list[tuple[Path, Path]] = []
         for path in paths:
             destination = folder / path.relative_to(self.root)
-            destination.parent.mkdir(parents=True, exist_ok=True)
-            os.replace(path, destination)
-            moved.append(destination)
-        return moved
+            try:
+                destination.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(path, destination)
+            except OSError as exc:
+                for back, there in reversed(moved):
+                    os.replace(there, back)
+                for there in {destination, *(there for _, there in moved)}:
+                    _prune(there.parent, self.root / DAMAGED_DIR)  # the folders made for them
+                raise ConfigError(str(path), "(set aside)", f"a file or directory this user can move into "
+                                  f"{folder} ({exc.strerror}); nothing was moved") from None
+            moved.append((path, destination))
+        return [destination for _, destination in moved]
+
+    def aside_folder(self) -> Path:
+        """A new DIR/damaged/<UTC time>/ (not made yet: what is set aside makes it); ConfigError if DIR/damaged is
+        there but no directory (checked before anything is moved)."""
+        aside = self.root / DAMAGED_DIR
+        if present(aside) and not aside.is_dir():
+            raise ConfigError(str(self.root), DAMAGED_DIR, "the directory damaged jobs and files are set aside in, "
+                              "got a file (move it away)")
+        stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+        folder, k = aside / stamp, 1
+        while present(folder):
+            folder, k = aside / f"{stamp}-{k}", k + 1
+        return folder
 
     def clean_temporaries(self) -> int:
         """Remove what a killed bench left half-written (temporary job directories and files); a temporary of a
@@ -281,6 +347,8 @@ class Store:
         except IsADirectoryError:
             raise ConfigError(str(path), "(file)",
                               f"the JSON plan 'morphbench bench' writes, not a directory ({REPAIR})") from None
+        except PermissionError:
+            raise Unreadable(path) from None
         except OSError as exc:
             raise ConfigError(str(path), "(file)", f"a readable file ({exc.strerror})") from None
         try:
@@ -354,9 +422,10 @@ class Store:
             held = {name: self._absorbed_ids(name) for name in ABSORBED}
             for run_id in set().union(*filter(None, held.values())) - kept:  # rows the new tables drop: back into
                 self.restore(run_id)                                          # their directories
+            self.set_aside_rows(self.orphans(plan))  # or, a run with no directory the plan does not list, aside
             unreadable = [self.root / f"{name}.parquet" for name in ABSORBED
                           if held[name] is None or isinstance(self._absorbed.get(name), _Bad)]
-            self.set_aside([path for path in unreadable if os.path.lexists(path)])  # kept, never written over
+            self.set_aside([path for path in unreadable if present(path)])  # kept, never written over
             for name, table in tables.items():
                 self.write_table(name, table)
             self._absorbed.clear()
@@ -369,16 +438,11 @@ class Store:
         """``DIR/<name>.parquet``, atomically: zstd, floats split by byte (half the size of the default snappy on
         the records' floats; pandas, Arrow and DuckDB read it alike); a consolidated table of ABSORBED names its
         columns in front of the runs' own in its metadata (``_split`` reads them as such)."""
-        path = self.root / f"{name}.parquet"
         arrow = pa.Table.from_pandas(table, preserve_index=False)
         if name in ABSORBED:
             front = [c for c in arrow.column_names if c not in JOB_SCHEMAS[name]]
             arrow = arrow.replace_schema_metadata({**arrow.schema.metadata, FRONT: json.dumps(front).encode()})
-        floats = [f.name for f in arrow.schema if pa.types.is_floating(f.type)]
-        others = [c for c in arrow.column_names if c not in floats]
-        atomic_write(path, lambda tmp: pq.write_table(arrow, tmp, compression="zstd", use_dictionary=others,
-                                                      use_byte_stream_split=floats))
-        return path
+        return _write_arrow(self.root / f"{name}.parquet", arrow)
 
     @contextmanager
     def replayable(self, run_id: str, units: bool = False) -> Iterator[Path]:
@@ -419,7 +483,7 @@ class Store:
         if name not in self._absorbed:
             path = self.root / f"{name}.parquet"
             try:
-                if not os.path.lexists(path):
+                if not present(path):
                     rows: dict[str, pa.Table] | _Bad = {}
                 elif not path.is_file():
                     raise _Bad(path, "a Parquet table, got a directory")
@@ -450,25 +514,70 @@ class Store:
         if rows is not None:
             return None if isinstance(rows, _Bad) else set(rows)
         path = self.root / f"{name}.parquet"
-        if not os.path.lexists(path):
+        if not present(path):
             return set()
         try:
             return set(pq.read_table(path, columns=["run_id"]).column("run_id").unique().to_pylist())
+        except PermissionError:
+            raise Unreadable(path) from None
         except (OSError, ValueError, KeyError, pa.ArrowException):
             return None
+
+    def orphans(self, plan: dict) -> dict[str, list[str]]:
+        """Per ABSORBED table, the runs it holds rows of that the plan does not list and that have no directory under
+        runs/ (rows copied in from elsewhere, or of a run deleted by hand): no consolidation keeps them (it writes a
+        run's rows back only into its directory), so they are set aside (``set_aside_rows``). A table that cannot be
+        read has none (its damage is its own)."""
+        listed = {entry["id"] for entry in plan["runs"]}
+        found = {}
+        for name in ABSORBED:
+            held = {run_id for run_id in self._absorbed_ids(name) or () if isinstance(run_id, str)} - listed
+            found[name] = sorted(run_id for run_id in held  # an id that is a path names no directory
+                                 if not SAFE_NAME.match(run_id) or not present(self.job_dir("run", run_id)))
+        return found
+
+    def set_aside_rows(self, orphans: dict[str, list[str]], folder: Path | None = None) -> list[tuple[str, Path]]:
+        """Move the rows of the runs ``orphans`` names (per ABSORBED table, as ``orphans`` gives them) out of the
+        consolidated table into a table of its name in ``folder`` (by default a new ``aside_folder``): written there
+        first, the table rewritten without them after. (The table's name, where it went) of each table."""
+        moved = []
+        for name, run_ids in orphans.items():
+            if not run_ids:
+                continue
+            folder = folder or self.aside_folder()
+            path = self.root / f"{name}.parquet"
+            table = pq.read_table(path)
+            odd = pc.is_in(table.column("run_id"), value_set=pa.array(run_ids, table.schema.field("run_id").type))
+            _write_arrow(folder / path.name, table.filter(odd))
+            _write_arrow(path, table.filter(pc.invert(odd)))
+            self._absorbed.pop(name, None)
+            moved.append((path.name, folder / path.name))
+        return moved
 
     def restore(self, run_id: str) -> None:
         """Write run ``run_id``'s rows of the consolidated tables back into its directory, where it has none: what
         consolidating does for a run the new tables leave out (not in the plan, or damaged), and ``check --repair``
         before moving a run's directory aside. Nothing for a run without a directory."""
+        if not SAFE_NAME.match(run_id):  # a run id of a hand-edited table that is a path: no run's directory
+            return
         directory = self.job_dir("run", run_id)
         if not directory.is_dir():
             return
         for name in ABSORBED:
             rows = self._split_table(name)
             path = directory / f"{name}.parquet"
-            if not isinstance(rows, _Bad) and run_id in rows and not os.path.lexists(path):
+            if not isinstance(rows, _Bad) and run_id in rows and not present(path):
                 atomic_write(path, lambda tmp, table=rows[run_id]: pq.write_table(table, tmp))
+
+
+def _prune(directory: Path, top: Path) -> None:
+    """Remove ``directory`` and its parents up to ``top`` (included) while they are empty."""
+    while directory.is_relative_to(top):
+        try:
+            directory.rmdir()
+        except OSError:  # not empty (or not ours to remove): the folders above are not either
+            return
+        directory = directory.parent
 
 
 def _job_row(job_id: str, kind: str, job: Loaded, root: Path) -> dict:
@@ -483,7 +592,7 @@ def _job_row(job_id: str, kind: str, job: Loaded, root: Path) -> dict:
 
 def _read_result(directory: Path, kind: str, job_id: str) -> dict | None:
     """A job's result.json, checked; None if the job has no directory (not run yet)."""
-    if not (directory.exists() or directory.is_symlink()):
+    if not present(directory):
         return None
     if not directory.is_dir():
         raise _Bad(directory, "a job directory (this is not a directory)")
@@ -494,6 +603,8 @@ def _read_result(directory: Path, kind: str, job_id: str) -> dict | None:
         raise _Bad(path, "the job's result.json (a finished job's directory has one), got none") from None
     except IsADirectoryError:
         raise _Bad(path, "a JSON file, got a directory") from None
+    except PermissionError:
+        raise Unreadable(path) from None
     except OSError as exc:
         raise _Bad(path, f"a readable file ({exc.strerror})") from None
     except (ValueError, RecursionError):
@@ -522,14 +633,28 @@ def _check_result(result: Any, kind: str, job_id: str, path: Path) -> None:
         raise _Bad(path, f"summary, the run's summary (an object), got {_short(summary)}")
     if not isinstance(summary, (dict, type(None))):
         raise _Bad(path, f"summary an object or null, got {_short(summary)}")
-    for key in SUMMARY_COLUMNS if summary else ():
-        value = summary.get(key)
-        if value is not None and not (_number(value) or isinstance(value, bool)) or value in (math.inf, -math.inf):
-            raise _Bad(path, f"summary.{key} a finite number, NaN or null, got {_short(value)}")
-    for key in ("steps", "n_units"):
-        value = (summary or {}).get(key)
-        if value is not None and not (isinstance(value, int) and not isinstance(value, bool) and value >= 0):
-            raise _Bad(path, f"summary.{key} an integer >= 0, got {_short(value)}")
+    if kind == "run" and summary is not None:
+        _check_summary(summary, path)
+
+
+def _check_summary(summary: dict, path: Path) -> None:
+    """A run's summary against SUMMARY_SCHEMA."""
+    unknown = [key for key in summary if key not in SUMMARY_SCHEMA]
+    if unknown:
+        raise _Bad(path, f"summary keys among a run's ({', '.join(SUMMARY_SCHEMA)}), got {_short(unknown[0])}")
+    learned = summary.get("steps") != 0  # a run of no learning step has NaN final values
+    for key, (what, required, finite) in SUMMARY_SCHEMA.items():
+        if key not in summary:
+            if required:
+                raise _Bad(path, f"summary.{key}, {what} (every run's summary has it), got none")
+            continue
+        value = summary[key]
+        empty = value is None or _number(value) and math.isnan(value)
+        if empty and finite and (what != NUMBER or learned):
+            raise _Bad(path, f"summary.{key} {'a finite number' if what == NUMBER else what}, got {_short(value)}")
+        if not empty and not _KINDS[what](value) or value in (math.inf, -math.inf):
+            none = "" if finite else ", NaN or null" if what == NUMBER else " or null"
+            raise _Bad(path, f"summary.{key} {what}{none}, got {_short(value)}")
 
 
 def _read_table(path: Path, n_units: int | None) -> pa.Table:
@@ -549,8 +674,18 @@ def _read_table(path: Path, n_units: int | None) -> pa.Table:
 def _parquet(path: Path) -> pa.Table:
     try:
         return pq.read_table(path)
+    except PermissionError:
+        raise Unreadable(path) from None
     except (OSError, ValueError, pa.ArrowException) as exc:
         raise _Bad(path, f"a Parquet file ({describe(exc, where=False)[:160]})") from None
+
+
+def _write_arrow(path: Path, arrow: pa.Table) -> Path:
+    """An Arrow table into ``path``, atomically: zstd, floats split by byte."""
+    floats = [f.name for f in arrow.schema if pa.types.is_floating(f.type)]
+    others = [c for c in arrow.column_names if c not in floats]
+    return atomic_write(path, lambda tmp: pq.write_table(arrow, tmp, compression="zstd", use_dictionary=others,
+                                                         use_byte_stream_split=floats))
 
 
 def _check_table(table: pa.Table, schema: dict[str, tuple[str, bool, bool]], path: Path, what: str) -> None:
@@ -712,6 +847,13 @@ def _refused(source: str, key: str, expected: str, value: Any) -> ConfigError:
 
 def _number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+_KINDS = {NUMBER: _number, INTEGER: lambda v: isinstance(v, int) and not isinstance(v, bool),
+          COUNT: lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
+          BOOLEAN: lambda v: isinstance(v, bool), TEXT: lambda v: isinstance(v, str),
+          OBJECT: lambda v: isinstance(v, dict), LIST: lambda v: isinstance(v, list)}
+"""what a value of each kind of SUMMARY_SCHEMA is."""
 
 
 def _short(value: Any, width: int = 60) -> str:

@@ -10,8 +10,9 @@ steps: ``Store.replayable``; the replay is checked against the stored Ubar) up t
 ``VideoParams.view = "auto"`` gives its shape (from above for a one-layer sheet of more than 100 units:
 render.topdown). A video whose run,
 steps, parameters, morphbench version and encoder (PyAV or the OpenCV fallback) have not changed since it was rendered
-(``DIR/videos/<experiment>.json`` says what it shows) is reused: delete ``DIR/videos/`` to render again. Videos of
-experiments the plan no longer has are removed. A replay that fails is reported in its Video (``error``), never
+(``DIR/videos/<experiment>.json`` says what it shows) is reused, if it still decodes (``video_problem``: a file
+damaged since is rendered again): delete ``DIR/videos/`` to render again. Videos of experiments the plan no longer
+has are removed. A replay that fails is reported in its Video (``error``), never
 raised: the report goes on without that video.
 
 The simulator is imported only when a video is rendered: importing this module (and bench.report) needs none.
@@ -30,7 +31,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from morphbench.bench.store import Store
+from morphbench.bench.store import Store, Unreadable
 from morphbench.errors import ConfigError
 from morphbench.failures import describe
 from morphbench.files import write_text
@@ -137,7 +138,7 @@ def _render_one(store: Store, folder: Path, video: Video, params: VideoParams, s
             encoder = "pyav" if writers.pyav() is not None else "opencv"
             key = json.loads(json.dumps({"run_id": video.run_id, "params": dataclasses.asdict(shown),
                                          "morphbench": _version(), "encoder": encoder}))  # as stored: tuples are lists
-            if out.is_file() and _read_json(record).get("key") == key:
+            if out.is_file() and _read_json(record).get("key") == key and video_problem(out) is None:
                 video.path, video.reused, video.codec = out, True, _read_json(record).get("codec", "")
                 return video
             from morphbench.render import render_run  # the simulator, only now
@@ -153,6 +154,26 @@ def _render_one(store: Store, folder: Path, video: Video, params: VideoParams, s
     finally:
         video.wall_time_s = 0.0 if video.reused else time.perf_counter() - started
     return video
+
+
+def video_problem(path: Path) -> str | None:
+    """Why ``path`` is not a video PyAV decodes (every frame its first video stream declares, at least one), or
+    None. Unreadable if this user may not read it."""
+    import av  # FFmpeg's decoders, only when a video is looked at
+
+    try:
+        with av.open(str(path)) as container:
+            if not container.streams.video:
+                return "it has no video stream"
+            declared = container.streams.video[0].frames
+            frames = sum(1 for _ in container.decode(video=0))
+    except PermissionError:
+        raise Unreadable(path) from None
+    except Exception as exc:  # noqa: BLE001 - whatever FFmpeg raises on a damaged file is the answer
+        return describe(exc, where=False)[:160]
+    if not frames or frames < declared:
+        return f"{frames} of its {declared} frames decode"
+    return None
 
 
 def _read_json(path: Path) -> dict:

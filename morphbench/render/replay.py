@@ -63,6 +63,7 @@ def load_run(run_dir: str | os.PathLike) -> tuple[RunConfig, pd.DataFrame]:
     key = "summary.config" if in_suite else "config"
     config = run_config_from_dict(config_data, str(summary_file), key)
     _check_shape(config, config_data["shape"], str(summary_file), key)
+    _check_ground(config, str(summary_file), key)
     try:
         steps = pd.read_parquet(steps_file)
     except Exception as exc:  # pyarrow raises its own types for a damaged file
@@ -79,6 +80,21 @@ def _check_shape(config: RunConfig, stored: dict, source: str, key: str) -> None
         if (name in stored or name != "id") and stored.get(name) != now:
             raise ConfigError(source, f"{key}.shape.{name}", f"the shape the run had; its file {shape.source} now "
                                                              f"holds another ({name} {now!r})", stored.get(name))
+
+
+def _check_ground(config: RunConfig, source: str, key: str) -> None:
+    """ConfigError unless the ground image the configuration names (``environment.ground.image``) is still one the
+    sensors load (sensing.ground: an existing image OpenCV reads, of a size it takes), whatever the run's sensor. An
+    ideal sensor never reads it, and the video draws its own ground; but the replay re-runs the configuration, and
+    one naming an input that is gone is no longer the run's (as a shape file that changed: ``_check_shape``)."""
+    if not config.environment.ground.image:
+        return
+    from morphbench.sensing.ground import GroundTexture  # the one loader of grounds; not its cache, which may hold
+                                                         # the image as it was when this process first loaded it
+    try:
+        GroundTexture(config.environment.ground)
+    except ConfigError as exc:  # named by the file and key the image came from, not by the sensor's parameters
+        raise ConfigError(source, f"{key}.environment.ground.{exc.key}", exc.expected, exc.got) from None
 
 
 def _check_steps(steps: pd.DataFrame, last: int, source: str) -> None:
