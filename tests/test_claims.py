@@ -322,3 +322,8 @@ def test_a_suite_too_short_for_a_claim_says_so_instead_of_no(agreeing):
         if verdict.holds is not None:  # what is still measured does not depend on the runs' length
             assert verdict.measured.on.startswith("scan") or "scan" in verdict.measured.on, verdict.claim.id
     assert all(agreeing[v.claim.id].holds is True for v in short)
+    from morphbench.bench.report import _claims_section, _duration
+
+    summary = _claims_section(build(world))[4]
+    assert summary.endswith(f"not measured; {len(short)} of them because this suite's runs are too short for them).")
+    assert (_duration(0.4), _duration(150)) == ("0.4 s", "2.5 min")

@@ -48,6 +48,8 @@ MIN_STEPS = 2 * LEARNED_AFTER
 """the fewest learning steps of a condition a claim about learning is measured on: the paper's findings are about
 learning done (after about LEARNED_AFTER steps) and what follows it; a shorter run measures the transient, and its
 verdict would be a false 'no' (the smoke suite's 10-step runs)."""
+TOO_SMALL = "too small a suite for it"
+"""how the reason of a claim not measured on runs shorter than MIN_STEPS starts."""
 
 
 @dataclass(frozen=True)
@@ -352,8 +354,8 @@ def _long_enough(mine: pd.DataFrame) -> pd.DataFrame | str:
         return mine
     long = mine[mine.steps.astype(float) >= MIN_STEPS]
     if long.empty:
-        return (f"too small a suite for it: its runs learn for {int(mine.steps.max())} steps, the claim is about "
-                f"learning done, measured on {MIN_STEPS} steps or more")
+        return (f"{TOO_SMALL}: its runs learn for {int(mine.steps.max())} steps, the claim is about learning "
+                f"done, measured on {MIN_STEPS} steps or more")
     return long
 
 

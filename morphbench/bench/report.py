@@ -89,7 +89,7 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None,
     n_damaged = int((runs.status == DAMAGED).sum())
     n_damaged = f", {n_damaged} damaged" if n_damaged else ""
     lines += [f"{len(runs)} runs: {n_done} done, {n_failed} failed, {n_missing} not run yet{n_damaged}; "
-              f"{len(plan['scans'])} scans. Compute time {wall / 60:.1f} min (sum over jobs). Report written "
+              f"{len(plan['scans'])} scans. Compute time {_duration(wall)} (sum over jobs). Report written "
               f"{time.strftime('%Y-%m-%d %H:%M')} from `{store.root}`.", "",
               "Ubar is the true mean velocity of the active units (mm/cycle), whatever the learners measured. "
               "Final Ubar: mean over the last 10% of steps, mean +- std over seeds. U_eq, U_0, k_0: fit of "
@@ -563,6 +563,11 @@ def _scan_section(plan: dict, scans: pd.DataFrame, figures: Path) -> list[str]:
     return lines + [""] + [p + "\n" for p in pictures]
 
 
+def _duration(seconds: float) -> str:
+    """A compute time as a reader reads it: seconds under two minutes (a smoke suite's 0.0 min), else minutes."""
+    return f"{seconds:.1f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+
+
 def claims_of(out: str | Path) -> list[C.Verdict]:
     """The paper's claims measured on the results directory ``out``, as its report measures them."""
     store = Store(out)
@@ -581,8 +586,10 @@ def _claims_section(tables: dict[str, pd.DataFrame]) -> list[str]:
     verdicts = C.check(tables)
     held = sum(v.holds is True for v in verdicts)
     unmeasured = sum(v.holds is None for v in verdicts)
+    small = sum(v.holds is None and v.reason.startswith(C.TOO_SMALL) for v in verdicts)
+    small = f"; {small} of them because this suite's runs are too short for them" if small else ""
     lines += [f"{held} of {len(verdicts)} claims hold ({len(verdicts) - held - unmeasured} do not, {unmeasured} not "
-              "measured).", "",
+              f"measured{small}).", "",
               "| claim | scenario | statement | paper | measured | measured on | holds if | holds |",
               "|---|---|---|---|---|---|---|---|"]
     for verdict in verdicts:
