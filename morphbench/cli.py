@@ -33,6 +33,7 @@ from morphbench.params import (
 )
 from morphbench.render.options import add_render_arguments, video_params_from_args
 from morphbench.rules import field_option, option_type
+from morphbench.progress import announced, redrawn
 from morphbench.shapes.cli import add_shapes_commands
 from morphbench.shapes.loader import resolve_shape_path
 
@@ -164,7 +165,39 @@ def _run_dir(out: str, overwrite: bool) -> Path:
         ancestor = ancestor.parent
     if not ancestor.is_dir() or not os.access(ancestor, os.W_OK | os.X_OK):
         raise ConfigError("--out", out, f"a directory that can be written ({ancestor} is not a writable directory)")
+    _try_writing(path, out)
     return path
+
+
+def _try_writing(path: Path, out: str) -> None:
+    """Make what ``RunRecords.write`` makes (the missing parents of ``path``, the temporary directory beside it that
+    becomes the run directory, a file in it) and remove it all again: the access bits say yes where the file system
+    says no (root in /proc, a read-only mount), and a run found unwritable only after it was simulated is lost."""
+    target = Path(os.path.abspath(path))
+    made: list[Path] = []
+    try:
+        for parent in reversed(target.parents):
+            if not parent.exists():
+                parent.mkdir()
+                made.append(parent)
+        # the writer's own name (files.is_stale); one left by a killed process of this id is the writer's to clear
+        probe = target.with_name(f".{target.name}.tmp-{os.getpid()}")
+        probe.mkdir(exist_ok=True)
+        made.append(probe)
+        (probe / "summary.json").write_bytes(b"{}")
+        made.append(probe / "summary.json")
+    except OSError as exc:
+        where = f": {exc.filename}" if exc.filename else ""
+        raise ConfigError("--out", out, f"a directory that can be written ({exc.strerror or exc}{where})") from None
+    finally:
+        for made_path in reversed(made):  # the file, the temporary, then the parents, deepest first
+            try:
+                if made_path.is_dir():
+                    made_path.rmdir()
+                else:
+                    made_path.unlink()
+            except OSError:
+                pass
 
 
 def _output_dir(out: str, marker: str, overwrite: bool) -> Path:
@@ -203,7 +236,8 @@ def _cmd_run(args) -> int:
     from morphbench.learning import load_learner_class
     from morphbench.render import open_recorder
 
-    config = _with_options(load_run_config(resolve_shape_path(args.config), physics=args.physics), args)
+    with announced(f"reading, generating and checking {args.config}", args.quiet):
+        config = _with_options(load_run_config(resolve_shape_path(args.config), physics=args.physics), args)
     if args.steps is not None:
         check_events_happen(config, "--steps", str(args.steps))
     load_learner_class(config.learner)  # fail on a bad plug-in before simulating
@@ -220,17 +254,25 @@ def _cmd_run(args) -> int:
         plots.learning_curve(records.steps(), records.units(), directory / "learning_curve.png", title=title)
         plots.trajectory_figure(records.steps(), directory / "trajectory.png", title=title)
 
+    bodies = len(config.shape.bodies)
     try:
-        with video as recorder, tqdm(total=config.steps + 1, desc=f"{name} {learner_name}", unit="step",
-                                     disable=args.quiet) as bar:
+        # until its first step ends, the bar says what is under way (a large world is built and warmed up for
+        # minutes), and it is redrawn every second while Python runs (building the world, between advances)
+        with video as recorder, tqdm(total=config.steps + 1, unit="step", disable=args.quiet,
+                                     desc=f"{name} {learner_name}: building the world of {bodies:,} bodies, warming "
+                                          f"it up and measuring step 0") as bar, redrawn(bar):
             def progress(step, records):
+                if step == 0:
+                    bar.set_description_str(f"{name} {learner_name}", refresh=False)
                 bar.update(1)
-                bar.set_postfix_str(f"Ubar {records.last_ubar:+.2f} mm/cycle")
+                if records.n_steps:  # units on clocks of their own record a step once the next is under way
+                    bar.set_postfix_str(f"Ubar {records.last_ubar:+.2f} mm/cycle")
                 if recorder is not None:
                     recorder.progress(step, records)
 
             records = run(config, progress, recorder)
-        records.write(out, figures)
+        with announced(f"writing the records and figures of {bodies:,} bodies to {out}", args.quiet):
+            records.write(out, figures)
     except KeyboardInterrupt:
         print(f"morphbench: interrupted; nothing of this run was written to {out}", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -454,6 +454,52 @@ def test_a_killed_bench_leaves_no_worker_running(gated, tmp_path):
         bench.wait()
 
 
+SLOW_IMPORT = '''
+import os, time
+from pathlib import Path
+
+GATE = Path({gate!r})
+if str(os.getpid()) != os.environ.get("MB_POOL_PARENT"):  # a worker: its import waits, as a slow one of the simulator
+    (GATE / str(os.getpid())).touch()
+    while not (GATE / "open").exists():
+        time.sleep(0.05)
+
+
+def work(job):
+    return {{"status": "done", "job": job}}
+'''
+"""a job function whose module takes a worker as long as the gate stays shut to import."""
+POOL = """
+import os, sys
+os.environ["MB_POOL_PARENT"] = str(os.getpid())
+import mb_slow_import
+from morphbench.bench.executors import LocalExecutor
+print(list(LocalExecutor(1).run([1], mb_slow_import.work)))
+"""
+"""a pool's parent: one worker, one job of mb_slow_import.work."""
+
+
+def test_a_worker_killed_with_its_pool_while_it_imports_the_jobs_ends_too(plugins, tmp_path):
+    # A killed leaderboard's workers lived on for seconds: they were still importing the jobs' module (the simulator:
+    # seconds on a busy machine), which came before they asked to end with their parent. A worker now asks first.
+    gate = tmp_path / "gate"
+    gate.mkdir()
+    plugins("mb_slow_import", SLOW_IMPORT.format(gate=str(gate)))
+    pool = subprocess.Popen([sys.executable, "-c", POOL], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True)
+    try:
+        wait_for(lambda: worker_pids(gate), "the worker importing the jobs' module", pool)
+        [worker] = worker_pids(gate)
+        assert running(worker)
+        pool.send_signal(signal.SIGKILL)
+        pool.wait()
+        wait_for(lambda: not running(worker), "the worker to end with its pool")
+    finally:
+        (gate / "open").touch()
+        pool.kill()
+        pool.wait()
+
+
 # --- the robustness benchmark's cases ---------------------------------------------------------------------------------
 
 

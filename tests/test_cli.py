@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -265,6 +266,34 @@ def test_out_is_an_existing_file(tmp_path: Path, capsys):
         assert code == EXIT_BAD_INPUT
         assert_one_line_error(err, "--out", str(out), "a directory")
         assert out.read_text() == "not a directory\n"
+
+
+@pytest.mark.parametrize("where", ["under a file", "in /proc"])
+def test_out_that_cannot_be_written_is_refused_before_simulating(tmp_path: Path, capsys, where: str):
+    # access bits say yes to root in /proc, where no directory can be made: the run was simulated, then lost in a
+    # FileNotFoundError. A directory is now made where the run would go (and removed) before anything is simulated.
+    if where == "in /proc":
+        if not Path("/proc/self").is_dir():
+            pytest.skip("no /proc on this system")
+        out = Path("/proc") / f"morphbench-{os.getpid()}"
+    else:
+        (tmp_path / "file.txt").write_text("a file\n")
+        out = tmp_path / "file.txt" / "sub"
+    code, stdout, err = run_cli(capsys, "run", CHAIN2, "--steps", "1", "--quiet", "--out", str(out))
+    assert code == EXIT_BAD_INPUT and stdout == ""
+    assert_one_line_error(err, "--out", str(out), "expected a directory that can be written")
+    assert not out.exists()
+
+
+def test_the_out_check_leaves_nothing_when_the_run_is_refused_later(tmp_path: Path, capsys):
+    out = tmp_path / "new" / "deeper" / "run"
+    code, _, err = run_cli(capsys, "run", CHAIN2, "--steps", "1", "--quiet", "--out", str(out), "--video",
+                           str(tmp_path / "video.txt"))  # refused after --out was tried
+    assert code == EXIT_BAD_INPUT
+    assert_one_line_error(err, "--video")
+    assert list(tmp_path.iterdir()) == []  # neither the parents nor the temporary it made
+    assert run_cli(capsys, "run", CHAIN2, "--steps", "1", "--quiet", "--out", str(out))[0] == 0
+    assert os.listdir(out.parent) == ["run"]  # the writer's own temporary name, gone once it is renamed
 
 
 def test_scan_needs_two_units(tmp_path: Path, capsys):

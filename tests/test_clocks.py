@@ -185,6 +185,35 @@ def test_bad_values_are_refused_in_one_line(tmp_path, capsys, environment, key):
         check_params(EnvironmentParams(**{k: v for k, v in environment.items()}), "env")
 
 
+@pytest.mark.parametrize("clock", ["clock_offset = 0.5", "clock_drift = 0.01"])
+@pytest.mark.parametrize("sensor, quiet", [("ideal", True), ("optical", True), ("ideal", False)])
+def test_morphbench_run_runs_units_on_clocks_of_their_own(tmp_path, capsys, clock, sensor, quiet):
+    # the progress callback was called after a clocked run's step 0 before that step was recorded (units end a step
+    # in the next one's span): it asked the records for the last Ubar and failed with KeyError 'u_measured'
+    path = write(tmp_path, f'shape = "{SHAPES_DIR / "chain-2.toml"}"\n[environment]\n{clock}\n', "run.toml")
+    out = tmp_path / "out"
+    code = main(["run", str(path), "--steps", "3", "--out", str(out), "--sensor", sensor] + ["--quiet"] * quiet)
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "Traceback" not in captured.err and captured.out.startswith("run: final Ubar ")
+    steps = pd.read_parquet(out / "steps.parquet")
+    assert steps.step.tolist() == [0, 1, 2, 3] and np.isfinite(steps.ubar).all()
+    config = json.loads((out / "summary.json").read_text())["config"]
+    assert config["environment"][clock.split(" = ")[0]] == float(clock.split(" = ")[1])
+
+
+def test_a_video_of_a_run_on_clocks_of_its_own_colours_the_kept_phases(tmp_path, capsys):
+    # a video's recorder reads the kept phases at each progress call too: none are recorded after step 0 yet
+    path = write(tmp_path, f'shape = "{SHAPES_DIR / "chain-2.toml"}"\n[environment]\nclock_offset = 0.5\n',
+                 "run.toml")
+    video = tmp_path / "run.gif"
+    code = main(["run", str(path), "--steps", "2", "--out", str(tmp_path / "out"), "--quiet", "--video", str(video),
+                 "--video-width", "160", "--video-height", "90", "--video-fps", "10", "--video-speed", "4",
+                 "--colour", "phase"])
+    assert code == 0, capsys.readouterr().err
+    assert video.stat().st_size > 0
+
+
 def test_a_slow_clock_measures_the_cycles_of_its_own_that_fit_in_a_step():
     """With no discarded cycle (the paper's protocol) a slow clock's 2 cycles are longer than a step: it measures
     the whole step, as the fraction of its own cycles that fits, and its velocities are per cycle of its own."""

@@ -11,7 +11,7 @@ from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import parallel_api_test
 
 from morphbench.envs import CentralEnv, ParallelEnv
-from morphbench.errors import ConfigError
+from morphbench.errors import ConfigError, EpisodeOver
 from morphbench.experiment import RunConfig, parse_events, run
 from morphbench.params import PHYSICS_PRESETS, EnvironmentParams
 from morphbench.shapes import load_shape
@@ -186,6 +186,40 @@ def test_bad_construction_and_actions_are_refused():
         CentralEnv(SHAPES_DIR / "chain-3.toml", steps=2).step(np.zeros(2))
     env.step({"unit_1": [1.25], "unit_2": [0.2], "unit_3": [-0.1]})
     assert env.phases() == pytest.approx([0.25, 0.2, 0.9])
+
+
+def _step_both(env, phases):
+    """A step of either environment with these phases, one per unit."""
+    if isinstance(env, CentralEnv):
+        return env.step(np.array(phases))
+    return env.step({f"unit_{u + 1}": phase for u, phase in enumerate(phases)})
+
+
+@pytest.mark.parametrize("kind", [ParallelEnv, CentralEnv])
+def test_a_step_with_no_episode_running_is_one_line_episode_over(kind):
+    # before any reset, after the last step, after close() and after a reset that failed: never an AttributeError
+    env = kind("chain-2", steps=1)
+    expected = {"before a reset": "no episode has started; call reset()",
+                "after the last step": "the episode is over (its last learning step, 1); call reset()",
+                "after close": "the episode is over (the environment was closed); call reset()",
+                "after a failed reset": "no episode has started; call reset()"}
+    for when, message in expected.items():
+        if when == "after the last step":
+            env.reset(seed=0)
+            _step_both(env, [0.1, 0.2])
+        elif when == "after close":
+            env.reset(seed=0)
+            env.close()
+        elif when == "after a failed reset":
+            env.reset(seed=0)
+            with pytest.raises(ConfigError, match="seed"):
+                env.reset(seed=2**63)  # beyond the records' int64, which Gymnasium's own seeding takes
+        with pytest.raises(EpisodeOver) as info:
+            _step_both(env, [0.1, 0.2])
+        assert str(info.value) == f"morphbench.envs: {message}", when
+    env.reset(seed=0)
+    assert _step_both(env, [0.1, 0.2]) is not None  # a reset starts an episode again
+    env.close()
 
 
 def test_the_documented_example_runs():

@@ -58,6 +58,8 @@ class Broken:
 """
 GREEDY = plugins.__doc__.split("# my_learners.py")[1].split("\n", 1)[1]
 """the documented plug-in example (morphbench.learning.plugins), a greedy learner."""
+FACTORY = f"def make():\n{textwrap.indent(textwrap.dedent(GREEDY), '    ')}    return Greedy\n\n\nMade = make()\n"
+"""the same learner, its class made by a factory: its qualified name is make.<locals>.Greedy."""
 
 
 # --- the scoring, on a stored fixture --------------------------------------------------------------------------------
@@ -142,6 +144,7 @@ def two_tasks(tmp_path_factory):
     plugins.mkdir()
     (plugins / "greedy_learner.py").write_text(textwrap.dedent(GREEDY))
     (plugins / "broken_learner.py").write_text(textwrap.dedent(BROKEN))
+    (plugins / "factory_learner.py").write_text(textwrap.dedent(FACTORY))
     with pytest.MonkeyPatch.context() as patch:
         patch.syspath_prepend(str(plugins))
         patch.setenv("PYTHONPATH", os.pathsep.join([str(plugins), str(ROOT)]))
@@ -227,6 +230,31 @@ def test_a_plugin_whose_runs_fail_is_listed_unscored_and_the_others_still_ranked
     text = (out / "leaderboard.md").read_text()
     assert "| - | broken_learner:Broken | not scored | 0 |" in text
     assert text.count("| - (2 failed) |") == 2
+
+
+def test_a_plugin_class_made_by_a_factory_is_taken_as_run_and_bench_take_it(two_tasks, capsys):
+    # the leaderboard named a plug-in by its class's module:qualname, factory_learner:make.<locals>.Greedy, which no
+    # loader takes; it names it now as it was given, as run and bench do (learning.plugins.learner_name)
+    root, suite, _ = two_tasks
+    out = root / "factory"
+    code, stdout, stderr = run_cli(capsys, "leaderboard", "factory_learner:Made", " THERMAL ", "--suite", str(suite),
+                                   "--tasks", "c2", "--out", str(out), "--workers", "1", "--quiet")
+    assert code == 0, stderr
+    runs = pd.read_parquet(out / "runs.parquet")
+    assert set(runs.learner) == {"factory_learner:Made"} and (runs.status == "done").all()
+    assert "factory_learner:Made: " in stdout and "thermal: " in stdout  # thermal, whatever its case: the stored one
+
+
+def test_learner_names_are_those_the_loader_takes_back(tmp_path, monkeypatch):
+    (tmp_path / "made_learner.py").write_text(FACTORY)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert plugins.learner_spec(plugins.load_learner_class("made_learner:Made")) == "made_learner:make.<locals>.Greedy"
+    for given, name in [("Thermal", "thermal"), (" cmaes ", "cmaes"), ("made_learner:Made", "made_learner:Made"),
+                        ("morphbench.learning.metropolis:FlakyLearner", "flaky")]:
+        assert plugins.learner_name(given) == name
+        assert plugins.load_learner_class(name) is plugins.load_learner_class(given)
+    with pytest.raises(ConfigError, match="--learner: nosuch: expected"):
+        plugins.learner_name("nosuch")
 
 
 def test_the_stored_builtins_alone_run_nothing(two_tasks, capsys):

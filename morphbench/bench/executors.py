@@ -15,6 +15,7 @@ import collections
 import ctypes
 import multiprocessing
 import os
+import pickle
 import signal
 import sys
 import threading
@@ -22,8 +23,8 @@ import time
 from multiprocessing.connection import wait
 from typing import Any, Callable, Iterable, Iterator
 
-from morphbench.bench.jobs import describe, failed, lost
 from morphbench.errors import ConfigError
+from morphbench.failures import describe
 
 
 def default_workers() -> int:
@@ -41,7 +42,10 @@ class LocalExecutor:
     Each worker holds one job at a time, so a worker that dies takes exactly that job with it: the job is failed
     (``jobs.lost``), a fresh worker takes the dead one's place, and no other job is lost. Workers ignore Ctrl-C (the
     bench stops them: no traceback of theirs comes before its one line) and end with the bench, even when it is
-    killed (SIGKILL): on Linux the kernel ends them (``PR_SET_PDEATHSIG``), elsewhere they watch their parent."""
+    killed (SIGKILL): on Linux the kernel ends them (``PR_SET_PDEATHSIG``), elsewhere they watch their parent. A
+    worker asks for that before it imports anything of the jobs: this module imports nothing heavy, and ``fn`` reaches
+    the worker pickled, loaded once it is bound to its parent (importing the simulator takes seconds, more on a busy
+    machine, and a worker killed with its parent meanwhile would live on until it finished)."""
 
     def __init__(self, workers: int | None = None):
         self.workers = workers or default_workers()
@@ -83,7 +87,8 @@ class _Worker:
         context = multiprocessing.get_context("spawn")
         self.conn, child = context.Pipe()
         self.child = child
-        self.process = context.Process(target=_serve, args=(child, fn, os.getpid()), name="morphbench-worker")
+        self.process = context.Process(target=_serve, args=(child, pickle.dumps(fn), os.getpid()),
+                                       name="morphbench-worker")
         self.job, self.dead = None, False
 
     def start(self) -> None:
@@ -113,9 +118,9 @@ class _Worker:
             return job, self.conn.recv()
         except (EOFError, OSError):  # the worker died before it sent a result
             self._end()
-            return job, lost(_death(self.process.exitcode))
+            return job, _jobs().lost(_death(self.process.exitcode))
         except Exception as exc:  # a result that cannot be unpickled here
-            return job, failed(describe(exc))
+            return job, _jobs().failed(describe(exc))
 
     def _end(self) -> None:
         self.dead = True
@@ -151,12 +156,22 @@ def _stop(workers: list[_Worker]) -> None:
         worker.conn.close()
 
 
-def _serve(conn, fn: Callable[[Any], dict], parent: int) -> None:
-    """A worker's life: run the jobs the parent sends, one at a time, and send back each result; end at None, or
-    when the parent is gone."""
+def _jobs():
+    """bench.jobs, imported when first needed: it imports the simulator, which a worker must not import before it is
+    bound to its parent (``_serve``)."""
+    from morphbench.bench import jobs
+
+    return jobs
+
+
+def _serve(conn, pickled_fn: bytes, parent: int) -> None:
+    """A worker's life: bound to its parent, then run the jobs the parent sends with ``fn`` (``pickled_fn``, loaded
+    only now: loading it imports its module), one at a time, and send back each result; end at None, or when the
+    parent is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the bench's to handle: it stops its workers itself
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     _end_with_parent(parent)
+    fn, failed = pickle.loads(pickled_fn), _jobs().failed
     while True:
         try:
             job = conn.recv()
@@ -228,9 +243,9 @@ class DaskExecutor:
                 except distributed.KilledWorker as exc:  # the job took every worker that ran it down
                     last = getattr(exc.last_worker, "address", exc.last_worker)
                     before = f" and {exc.allowed_failures} before it" if exc.allowed_failures else ""
-                    result = lost(f"Dask worker {last}{before}")
+                    result = _jobs().lost(f"Dask worker {last}{before}")
                 except Exception as exc:  # a lost connection, ...
-                    result = failed(describe(exc))
+                    result = _jobs().failed(describe(exc))
                 future.release()
                 yield job, result
         finally:

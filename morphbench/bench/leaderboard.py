@@ -96,11 +96,11 @@ def leaderboard(learners: list[str], out: str | Path = DEFAULT_OUT, suite_path: 
     (default: the standard set) against its reference table, running those it does not store into ``out``; write
     ``out``/leaderboard.md and .html. Bad input (a learner that cannot be loaded, an unknown task, a reference
     table that is not this suite's, a results directory of another suite or with damaged runs) is a ConfigError."""
-    from morphbench.learning.plugins import learner_spec, load_learner_class
+    from morphbench.learning.plugins import learner_name
 
     out = check_path(str(out), "--out")  # before anything is read: an impossible name writes nothing
     suite_path = Path(suite_path) if suite_path is not None else standard_suite()
-    named = list(dict.fromkeys(learner_spec(load_learner_class(name)) for name in learners))
+    named = list(dict.fromkeys(learner_name(name) for name in learners))
     full = load_suite(suite_path)
     names = [e.name for e in full.experiments]
     for name in tasks or ():

@@ -107,6 +107,8 @@ class ParallelEnv(PettingZooParallelEnv):
         self._seed: int | None = None
         self.error: PhysicsError | None = None
         """the PhysicsError that ended the current episode, if one did."""
+        self.learning_step = 0
+        """the learning step last run (0: the initial measurement, at reset)."""
 
     def observation_space(self, agent: str) -> Box:
         return self._observation_spaces[agent]
@@ -118,6 +120,7 @@ class ParallelEnv(PettingZooParallelEnv):
         """A new episode seeded with ``seed`` (None: the configuration's seed at the first reset, then the previous
         episode's seed + 1, so that a sequence of resets is reproducible); ``options`` are not used."""
         self.close()
+        self.agents, self.records, self.error = [], None, None  # a reset that fails leaves no episode to step
         if seed is None:
             seed = self.config.seed if self._seed is None else self._seed + 1
         self._seed = check_rule(SEED, "", seed, SOURCE, "seed")
@@ -130,20 +133,22 @@ class ParallelEnv(PettingZooParallelEnv):
         if self._driver.outcome[0] is not None:  # its loop could not be built (a sensor the world cannot give)
             failure = self._driver.outcome[0]
             self.close()
+            self.records = None
             raise failure
         self._driver.warm_up()
         self.learning_step = 0
-        """the learning step last run (0: the initial measurement, at reset)."""
         self.agents = list(self.possible_agents)
-        self.error = None
         observations, _, _, _, infos = self._measure()
         return observations, infos
 
     def step(self, actions: dict[str, Any]):
         """One learning step with each living agent's phase (every living agent must act, no other agent may). Bad
         actions are refused (ActionError) before anything changes."""
-        if not self.agents:
+        if self.records is None:
+            raise EpisodeOver(f"{SOURCE}: no episode has started; call reset()")
+        if not self.agents or self._driver is None:
             why = (f"a PhysicsError at learning step {self.learning_step}: {self.error}" if self.error is not None
+                   else "the environment was closed" if self._driver is None
                    else "no agent is alive" if self.learning_step < self.config.steps
                    else f"its last learning step, {self.config.steps}")
             raise EpisodeOver(f"{SOURCE}: the episode is over ({why}); call reset()")

@@ -130,11 +130,17 @@ class RunRecords:
 
     @property
     def last_ubar(self) -> float:
+        """Ubar of the last step recorded; NaN before any (units on clocks of their own record a step only once the
+        next one is under way: their run's first progress call comes before its step 0 is recorded)."""
+        if not self.n_steps:
+            return math.nan
         return float(np.nanmean(self.rows.of(self.run, "u_measured")[-1]))
 
-    def last_kept_by_place(self) -> np.ndarray:
-        """The units' kept phases at the end of the last step, by the place each sits at (the world's unit order, as
-        ``world.phases``): what a video colours each unit's body by."""
+    def last_kept_by_place(self) -> np.ndarray | None:
+        """The units' kept phases at the end of the last step recorded, by the place each sits at (the world's unit
+        order, as ``world.phases``): what a video colours each unit's body by; None before any step is recorded."""
+        if not self.n_steps:
+            return None
         kept, place = self.rows.of(self.run, "phase_kept")[-1], self.rows.of(self.run, "position")[-1] - 1
         by_place = np.empty(len(kept))
         by_place[place] = kept

@@ -239,8 +239,17 @@ def _check_phase(learner: object, name: str) -> None:
         raise ConfigError(_SOURCE, name, expected, phase)
 
 
+def learner_name(spec: str) -> str:
+    """``spec`` checked by ``load_learner_class`` and named as ``--learner`` loads it again: a built-in by its key
+    (whatever its case), a plug-in by the spec as given. Not ``learner_spec`` of the class it loads: a class made by a
+    factory is ``module:make.<locals>.C`` there, which no import reaches."""
+    cls = load_learner_class(spec)
+    return learner_spec(cls) if cls in LEARNERS.values() else spec.strip()
+
+
 def learner_spec(cls: type) -> str:
-    """How ``--learner`` names ``cls``: its registry key for a built-in, else 'module:ClassName'."""
+    """How messages and records name ``cls``: its registry key for a built-in, else 'module:QualifiedName' (which
+    ``load_learner_class`` may not take back: ``learner_name`` names a spec the user gave)."""
     for key, builtin in LEARNERS.items():
         if cls is builtin:
             return key

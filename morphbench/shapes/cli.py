@@ -18,6 +18,7 @@ import argparse
 from pathlib import Path
 
 from morphbench import data_path
+from morphbench.progress import announced
 from morphbench.errors import ConfigError
 from morphbench.files import check_path, is_dir
 from morphbench.shapes.checks import components
@@ -27,6 +28,10 @@ from morphbench.shapes.loader import load_shape, resolve_shape_path
 PACKAGE_SHAPES = data_path("shapes")
 """The shipped library (in the installed package, or next to it in a source checkout)."""
 FILE_HELP = "a morphology file, or the name of a shipped shape (chain-2; see 'morphbench shapes list')"
+def load_announced(file: str | Path, quiet: bool = False):
+    """``load_shape`` of FILE (a path or a library name), announced if it is slow (a large generated shape)."""
+    with announced(f"reading, generating and checking {file}", quiet):
+        return load_shape(resolve_shape_path(file))
 
 
 def default_directory() -> Path:
@@ -73,7 +78,7 @@ def cmd_list(args) -> int:
     files = sorted(directory.glob("*.toml"))
     if not files:
         raise ConfigError("shapes list", "DIRECTORY", "a directory with at least one .toml file", str(directory))
-    shapes = [load_shape(path) for path in files]  # a bad file stops the listing with its one-line message
+    shapes = [load_announced(path) for path in files]  # a bad file stops the listing with its one-line message
     width = max(len(s.name) for s in shapes)
     print(f"{'name':<{width}}  units  bodies  links  description")
     for s in shapes:
@@ -83,7 +88,7 @@ def cmd_list(args) -> int:
 
 def cmd_check(args) -> int:
     for file in args.files:
-        shape = load_shape(resolve_shape_path(file))
+        shape = load_announced(file)
         n_pieces = len(components(shape))
         pieces = f", {n_pieces} pieces (cut)" if n_pieces > 1 else ""
         print(f"OK {file}: {shape.name}, {_counts(shape)}{pieces}")
@@ -93,25 +98,27 @@ def cmd_check(args) -> int:
 def cmd_export(args) -> int:
     from morphbench.shapes.export import export_scene
 
-    return _write(args.file, "--out", args.out, SCENE_SUFFIXES, export_scene)
+    return _write(args.file, "--out", args.out, SCENE_SUFFIXES, export_scene, "exporting")
 
 
 def cmd_show(args) -> int:
     from morphbench.shapes.export import draw
 
-    return _write(args.file, "--png", args.png, (".png",), draw)
+    return _write(args.file, "--png", args.png, (".png",), draw, "drawing")
 
 
-def _write(file: str, flag: str, output: str, suffixes, writer) -> int:
-    """Load a shape and write it to ``output`` with ``writer(shape, path)``, the output checked first."""
+def _write(file: str, flag: str, output: str, suffixes, writer, verb: str) -> int:
+    """Load a shape and write it to ``output`` with ``writer(shape, path)`` (what it does: ``verb``), the output
+    checked first."""
     out = Path(output)
     if out.suffix.lower() not in suffixes:
         raise ConfigError(flag, output, f"a file name ending in {', '.join(suffixes)}")
     if is_dir(check_path(output, flag)):
         raise ConfigError(flag, output, "a file name (this is a directory)")
-    shape = load_shape(resolve_shape_path(file))
+    shape = load_announced(file)
     try:
-        writer(shape, out)
+        with announced(f"{verb} {len(shape.bodies):,} bodies and {len(shape.links):,} links into {out}"):
+            writer(shape, out)
     except OSError as exc:
         raise ConfigError(flag, output, f"a file that can be written ({exc.strerror or exc})") from None
     print(f"{shape.name}: {_counts(shape)} -> {out}")

@@ -1,0 +1,88 @@
+"""Long work shows it is under way from its first second (issue 34: a 200 x 200 sheet printed nothing for minutes
+while it was read, generated, checked, built or drawn): ``progress.announced`` and ``redrawn``. No test here
+measures time: they wait for what a clock thread writes (up to PATIENCE_S, a hang), or set its delay beyond reach."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+
+from morphbench import progress
+
+from conftest import SHAPES_DIR, run_cli
+
+PATIENCE_S = 60.0
+
+
+def _threads(name: str) -> list[threading.Thread]:
+    return [thread for thread in threading.enumerate() if thread.name == name]
+
+
+def test_work_still_going_after_the_delay_is_announced_with_its_time_and_its_line_ended(capsys, monkeypatch):
+    monkeypatch.setattr(progress, "ANNOUNCE_AFTER_S", 0.0)
+    seen = ""
+    with progress.announced("building the world of 40,000 bodies"):
+        deadline = time.monotonic() + PATIENCE_S
+        while "building the world of 40,000 bodies... " not in seen and time.monotonic() < deadline:
+            time.sleep(0.01)
+            seen += capsys.readouterr().err
+    seen += capsys.readouterr().err
+    assert seen.startswith("\rbuilding the world of 40,000 bodies... ") and seen.endswith(" s\n")
+    assert not _threads("morphbench-announce")  # the clock stops with the work
+
+
+def test_work_done_before_the_delay_and_quiet_work_say_nothing(capsys, monkeypatch):
+    monkeypatch.setattr(progress, "ANNOUNCE_AFTER_S", 3600.0)
+    with progress.announced("reading, generating and checking chain-2"):
+        pass
+    monkeypatch.setattr(progress, "ANNOUNCE_AFTER_S", 0.0)
+    with progress.announced("reading, generating and checking chain-2", quiet=True):
+        assert not _threads("morphbench-announce")  # nothing that could write
+    assert capsys.readouterr().err == ""
+
+
+def test_an_error_in_announced_work_ends_its_line_before_the_error_is_printed(capsys, monkeypatch):
+    monkeypatch.setattr(progress, "ANNOUNCE_AFTER_S", 0.0)
+    with pytest.raises(ValueError):
+        with progress.announced("drawing"):
+            deadline = time.monotonic() + PATIENCE_S
+            while "drawing" not in capsys.readouterr().err and time.monotonic() < deadline:
+                time.sleep(0.01)
+            raise ValueError("bad")
+    assert capsys.readouterr().err.endswith("\n")  # the CLI's one-line error starts on a line of its own
+
+
+class _Bar:
+    """What ``redrawn`` uses of a tqdm bar."""
+
+    disable = False
+
+    def __init__(self):
+        self.redrawn = 0
+
+    def refresh(self):
+        self.redrawn += 1
+
+
+def test_a_bar_is_redrawn_while_its_block_runs_and_no_more_after(monkeypatch):
+    bar = _Bar()
+    with progress.redrawn(bar):
+        deadline = time.monotonic() + PATIENCE_S
+        while bar.redrawn < 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert bar.redrawn >= 2  # its elapsed time goes on between its updates
+    assert not _threads("morphbench-redraw")
+    bar.disable = True
+    with progress.redrawn(bar):
+        assert not _threads("morphbench-redraw")  # a disabled bar (--quiet) gets no clock
+
+
+def test_a_runs_bar_says_the_world_is_being_built_until_its_first_step_ends(tmp_path, capsys):
+    code, _, err = run_cli(capsys, "run", str(SHAPES_DIR / "chain-2.toml"), "--steps", "1", "--out",
+                           str(tmp_path / "run"))
+    assert code == 0, err
+    first, *rest = [line for line in err.replace("\r", "\n").splitlines() if line.strip()]
+    assert first.startswith("chain-2 thermal: building the world of 3 bodies, warming it up and measuring step 0: ")
+    assert rest[-1].startswith("chain-2 thermal: 100%")
