@@ -86,3 +86,22 @@ def test_a_runs_bar_says_the_world_is_being_built_until_its_first_step_ends(tmp_
     first, *rest = [line for line in err.replace("\r", "\n").splitlines() if line.strip()]
     assert first.startswith("chain-2 thermal: building the world of 3 bodies, warming it up and measuring step 0: ")
     assert rest[-1].startswith("chain-2 thermal: 100%")
+
+
+def test_the_compiled_physics_lets_the_progress_clock_run():
+    """Every compiled kernel of physics/ releases the interpreter's lock (nogil): a step of a large world takes
+    minutes inside one call, and a kernel that held the lock would stop the clock of ``announced`` and ``redrawn``."""
+    import importlib
+    import pkgutil
+
+    import numba
+
+    import morphbench.physics as physics
+
+    kernels = []
+    for module in pkgutil.iter_modules(physics.__path__):
+        loaded = importlib.import_module(f"morphbench.physics.{module.name}")
+        kernels += [(f"{module.name}.{name}", value) for name, value in vars(loaded).items()
+                    if isinstance(value, numba.core.registry.CPUDispatcher) and value.__module__ == loaded.__name__]
+    assert len(kernels) >= 20
+    assert [name for name, kernel in kernels if not kernel.targetoptions.get("nogil")] == []

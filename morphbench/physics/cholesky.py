@@ -100,7 +100,7 @@ def structure(points: np.ndarray, front: np.ndarray, rear: np.ndarray) -> Struct
     return Structure(position, columns, rows, row_starts, row_slots, row_columns, link_slots)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _symbolic(starts, adjacent):
     """The pattern of L from the matrix's (``adjacent[starts[j]:starts[j + 1]]``: the bodies linked to the body at
     place j): row i of L holds the columns met walking up the elimination tree from each k < i linked to i."""
@@ -152,7 +152,7 @@ def _symbolic(starts, adjacent):
     return columns, rows, row_starts, row_slots, row_columns
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _link_slots(front, rear, columns, rows):
     """Per link (its bodies' places), the storage index of its block in L's pattern."""
     slots = np.empty(len(front), dtype=np.int64)
@@ -165,7 +165,7 @@ def _link_slots(front, rear, columns, rows):
     return slots
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def factor(blocks, columns, rows, row_starts, row_slots, row_columns, where):
     """Factor in place the matrix held in ``blocks`` (one 3 x 3 block per slot of the pattern, the lower triangle
     in elimination order): True, or False if it is not definite to rounding. ``where`` is an (n,) int workspace."""
@@ -213,7 +213,7 @@ def factor(blocks, columns, rows, row_starts, row_slots, row_columns, where):
     return True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def solve(blocks, columns, rows, x):
     """x <- (L L^T)^-1 x in place, L factored by ``factor``; x is (n, 3), one row per place in elimination order."""
     n = len(columns) - 1

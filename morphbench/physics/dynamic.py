@@ -39,6 +39,7 @@ from morphbench.physics.batch import Copies
 from morphbench.physics.bellows import FIELD_UPDATE_PERIOD, Bellows
 from morphbench.physics.friction import NO_FIELD, factors
 from morphbench.physics.planar import PlanarWorld, _link_jacobian, check_one_layer, friction_radius
+from morphbench.physics.pressure import _trajectory, pressure_trajectory
 from morphbench.shapes.meshes import mass_properties
 from morphbench.shapes.model import Shape
 
@@ -110,26 +111,34 @@ class DynamicWorld(Bellows):
     def advance(self, n_ticks: int, on_tick=None, pumps: bool = True, every: int = 1) -> None:
         if n_ticks <= 0:
             return
-        start = self.time
-        before = self._rest_lengths(self.pressure[None])[0]  # the rest lengths now, where the first tick starts
-        trajectory = self._pressures(start, n_ticks, pumps)
-        lengths = self._rest_lengths(trajectory)  # (n_ticks, n_links) at each tick's end
-        limits = np.ascontiguousarray(self._friction_limits(start, n_ticks, pumps))
+        start, actuator = self.time, self.shape.actuator
+        driver = np.maximum(self.link_units, 0)  # as ``_pressures``: a passive link's pressure is computed, then 0
+        phases, periods = self.phases[driver], self.periods[driver]
+        pressure_trajectory(self.pressure, phases, start, self.tick, 0, actuator, periods)  # its checks alone
+        gate = self._actuated.astype(float) if pumps else np.zeros(len(self.link_units))
+        lengths = self._rest_lengths(self.pressure[None])[0]  # the rest lengths now, where the first tick starts
+        limits = self._friction_limits(start, n_ticks, pumps)
+        if limits.strides[0] == 0:  # the same every tick (no vibration): one row, not one per tick
+            limits = limits[:1]
+        limits = np.ascontiguousarray(limits)
         modes, constants = NO_FIELD if self._field is None else self._field_modes
         field_every = 0 if self._field is None else max(1, round(FIELD_UPDATE_PERIOD / self.tick))
         springs = self._springs()
+        stuck = self._stuck_length if self._any_stuck else np.full(len(self.link_units), np.nan)
+        pressure = np.array(self.pressure, dtype=float)
         ends = list(range(every, n_ticks, every)) + [n_ticks] if on_tick is not None else [n_ticks]
         begin = 0
         for end in ends:
-            _integrate(self.q, self.v, before if begin == 0 else lengths[begin - 1], lengths[begin:end],
-                       limits[begin:end], self._front, self._rear, self._plane_axes, self.intact, springs,
-                       self._damping, self.shape.actuator.max_force, self._mass, self._inertia, self._rho,
-                       self.substeps, self.tick / self.substeps, begin, field_every, modes, constants, self._factor)
+            _integrate(self.q, self.v, pressure, lengths, begin, end, start, self.tick, phases, periods, actuator.alpha,
+                       actuator.tau_inflate, actuator.tau_vent, gate, self._empty_pitch, self._strokes,
+                       self._extends, stuck, limits, self._front, self._rear, self._plane_axes, self.intact,
+                       springs, self._damping, actuator.max_force, self._mass, self._inertia, self._rho,
+                       self.substeps, self.tick / self.substeps, field_every, modes, constants, self._factor)
             if on_tick is not None and end % every == 0:
-                self.pressure, self.time = trajectory[end - 1], start + end * self.tick
+                self.pressure, self.time = pressure.copy(), start + end * self.tick
                 on_tick(end - 1)
             begin = end
-        self.pressure, self.time = trajectory[-1], start + n_ticks * self.tick
+        self.pressure, self.time = pressure, start + n_ticks * self.tick
 
 
 class DynamicCopies(Copies):
@@ -138,7 +147,7 @@ class DynamicCopies(Copies):
     world_class = DynamicWorld
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _stick_slip(z, masses, limit):
     """The velocity (in the friction metric z = (v_x, v_y, rho omega)) that minimises
     sum_j masses_j / 2 (z_j - z0_j)^2 + limit |z| over z, from the free velocity z0 (in ``z``, overwritten), with
@@ -178,7 +187,7 @@ def _stick_slip(z, masses, limit):
     z[0], z[1], z[2] = a0 / (masses[0] + lam), a1 / (masses[1] + lam), a2 / (masses[2] + lam)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _step(q, v, rest, w, front, rear, axes, intact, springs, damping, cap, mass, inertia, rho, h, force, jac,
           strain, z, metric):
     """One semi-implicit Euler step of h s: every intact link's spring-damper forces into ``force`` (a loop over the
@@ -216,31 +225,45 @@ def _step(q, v, rest, w, front, rear, axes, intact, springs, damping, cap, mass,
             q[i, j] += h * v[i, j]
 
 
-@numba.njit(cache=True)
-def _integrate(q, v, before, lengths, limits, front, rear, axes, intact, springs, damping, cap, mass, inertia, rho,
-               steps, h, first_tick, field_every, modes, constants, factor):
-    """Advance poses ``q`` and velocities ``v`` (n, 3, in place) through the ticks of ``lengths`` (each link's rest
-    length at each tick's end; ``before`` at the first tick's start) and ``limits`` (each body's friction limit on a
-    uniform ground), ``steps`` steps of h per tick, the rest lengths interpolated linearly inside a tick. The limits
-    are scaled by the friction field (``friction.factors``) at the bodies' places, read into ``factor`` (kept between
-    calls) when first_tick + t is a multiple of field_every > 0."""
+@numba.njit(cache=True, nogil=True)
+def _integrate(q, v, pressure, lengths, first, last, t0, tick, phases, periods, alpha, tau_inflate, tau_vent, gate,
+               pitch, strokes, extends, stuck, limits, front, rear, axes, intact, springs, damping, cap, mass, inertia,
+               rho, steps, h, field_every, modes, constants, factor):
+    """Advance poses ``q`` and velocities ``v`` (n, 3, in place) through ticks ``first`` to ``last`` (0-based, of an
+    advance that started at ``t0``), ``steps`` steps of h per tick. Each tick's pressures are those of
+    ``Bellows._pressures`` (the pressure law ``pressure._trajectory`` from ``pressure``, each link's pump ``phases``
+    and ``periods``, times ``gate``: 1 for a pumped link, else 0) and its rest lengths those of ``_rest_lengths``
+    (``pitch`` + ``strokes`` x pressure x ``extends``, or a stuck bellows' ``stuck`` length where it is not NaN), the
+    same numbers in the same order, found tick by tick instead of for every tick of the advance at once: nothing
+    here grows with the number of ticks. ``pressure`` and ``lengths`` (each link's rest length) are where the first
+    tick starts on entry and where the last ends on return; the rest lengths are interpolated linearly inside a tick.
+    ``limits`` are each body's friction limit on a uniform ground, a row per tick of the advance or one row for
+    every tick, scaled by the friction field (``friction.factors``) at the bodies' places, read into ``factor`` (kept
+    between calls) when the tick's index is a multiple of field_every > 0."""
     n, n_links = q.shape[0], len(front)
     force = np.zeros((n, 3))
     jac, strain = np.empty((3, 6)), np.empty(3)
     z, metric = np.empty(3), np.empty(3)
     rest = np.empty(n_links)
     w = np.empty(n)
-    start = before.copy()
-    for t in range(lengths.shape[0]):
-        if field_every > 0 and (first_tick + t) % field_every == 0:
+    start = lengths.copy()
+    for k in range(first, last):
+        # the tick of ``_trajectory(p, ..., t0, tick, n_ticks, ...)``'s row k: it starts at t0 + tick * k
+        row = _trajectory(pressure, phases, t0 + tick * k, tick, 1, periods, alpha, tau_inflate, tau_vent)[0]
+        for link in range(n_links):
+            pressure[link] = row[link] * gate[link]
+            length = pitch[link] + strokes[link] * pressure[link] * extends[link]
+            lengths[link] = length if math.isnan(stuck[link]) else stuck[link]
+        if field_every > 0 and k % field_every == 0:
             factors(q[:, 0].copy(), q[:, 1].copy(), modes, constants, factor)
+        at = k if limits.shape[0] > 1 else 0
         for i in range(n):
-            w[i] = limits[t, i] * factor[i] if field_every > 0 else limits[t, i]
+            w[i] = limits[at, i] * factor[i] if field_every > 0 else limits[at, i]
         for s in range(steps):
             fraction = (s + 1) / steps
             for link in range(n_links):
-                rest[link] = start[link] + fraction * (lengths[t, link] - start[link])
+                rest[link] = start[link] + fraction * (lengths[link] - start[link])
             _step(q, v, rest, w, front, rear, axes, intact, springs, damping, cap, mass, inertia, rho, h, force,
                   jac, strain, z, metric)
         for link in range(n_links):
-            start[link] = lengths[t, link]
+            start[link] = lengths[link]

@@ -64,7 +64,7 @@ NO_FIELD = (np.zeros((0, 4)), np.zeros(3))
 """``FrictionField.compiled`` of a uniform ground (no modes: every factor is 1)."""
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def factors(x, y, modes, constants, out):
     """``FrictionField.friction(1, x, y)`` into ``out``, one point at a time (for compiled loops)."""
     wave, scale, amplitude = constants[0], constants[1], constants[2]

@@ -139,7 +139,7 @@ class PlanarWorld(QuasiStatic):
         return positions, orientations
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _link_jacobian(q, f, r, ax0, ax1, length, jac, strain):
     """Fill ``strain`` (axial less ``length``, shear, bend) of the link from body ``r`` to body ``f`` at the poses
     ``q`` and ``jac``, its derivative in (x_f, y_f, theta_f, x_r, y_r, theta_r): turning the frame turns the axes."""
@@ -155,7 +155,7 @@ def _link_jacobian(q, f, r, ax0, ax1, length, jac, strain):
     jac[2, 0], jac[2, 1], jac[2, 2], jac[2, 3], jac[2, 4], jac[2, 5] = 0.0, 0.0, 1.0, 0.0, 0.0, -1.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _spring(m, z, k, cap):
     """(energy J, force, curvature) of strain component ``m`` at ``z`` (stiffness ``k``; the axial one capped)."""
     if m == 0 and abs(k * z) > cap:  # the bellows gives way at its force cap: linear energy, no stiffness
@@ -163,7 +163,7 @@ def _spring(m, z, k, cap):
     return 0.5 * k * z * z, k * z, k
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, hess):
     """Add the gradient and the (generalised) Hessian of the links' elastic energy at increments ``u`` (linearised
     strains about ``q``) into ``grad`` and ``hess``; returns that energy (J)."""
@@ -192,7 +192,7 @@ def _link_terms(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, 
     return energy
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _link_blocks(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad, blocks):
     """``_link_terms`` with the Hessian in 3 x 3 blocks: ``blocks[i]`` body i's own (added to), ``blocks[n +
     link]`` the link's front-rear block (overwritten; 0 for a cut link)."""
@@ -224,7 +224,7 @@ def _link_blocks(q, u, front, rear, axes, intact, stiffness, cap, lengths, grad,
     return energy
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _solve_spd(K, b, width):
     """x with K x = b for a symmetric positive definite K (banded Cholesky: a lattice's bodies in row order couple
     only within a few rows, so the band is narrow; K is overwritten); NaN if K is not definite to rounding. K is 0
@@ -262,7 +262,7 @@ def _solve_spd(K, b, width):
     return x
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _reach(front, rear):
     """The farthest apart (in body order) two linked bodies are: the Hessian is 0 beyond 3 reach + 2 of its
     diagonal, so its passes keep to that band (a 200-row grid's are 70 times shorter)."""
@@ -272,7 +272,7 @@ def _reach(front, rear):
     return reach
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _clear(hess, reach):
     """Zero the band of ``hess`` (the rest is 0 from the start and never written)."""
     size, band = len(hess), 3 * reach + 2
@@ -284,7 +284,7 @@ def _clear(hess, reach):
             hess[a, b] = 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _apply_root(n, root, x):
     """x <- (n n^T + root (I - n n^T)) x, in place (a 3-vector; n a unit vector)."""
     along = n[0] * x[0] + n[1] * x[1] + n[2] * x[2]
@@ -292,7 +292,7 @@ def _apply_root(n, root, x):
         x[j] = root * x[j] + (1.0 - root) * along * n[j]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _slide(v, i, limits, gamma, direction):
     """Body ``i`` sliding (its gradient step ``v`` outside its friction ball): fills ``direction`` (the unit vector
     it slides along) and returns the square root of d prox along the other directions and the friction's stiffness
@@ -304,7 +304,7 @@ def _slide(v, i, limits, gamma, direction):
     return np.sqrt(1.0 - t), t / gamma
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, limits, gamma, work):
     """The proximal-gradient residual z - prox(z - gamma grad) in the scaled increments z = (dx, dy, rho dtheta);
     fills the ``work`` arrays (``_workspace``): the gradient step ``v``, ``prox`` and the smooth part's gradient
@@ -349,7 +349,7 @@ def _residual(q, z, scale, front, rear, axes, intact, stiffness, cap, lengths, l
     return (worst, envelope) if np.isfinite(envelope) else (np.inf, np.inf)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _scale_blocks(grad, blocks, front, rear, scale):
     """The gradient and the block Hessian in the scaled increments z (divided by the scale of their rows and
     columns)."""
@@ -365,7 +365,7 @@ def _scale_blocks(grad, blocks, front, rear, scale):
                 blocks[n + link, a, b] /= scale[3 * front[link] + a] * scale[3 * rear[link] + b]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _step_size(q, front, rear, axes, intact, stiffness, lengths, scale, work):
     """1 / (a bound on the largest eigenvalue of the scaled Hessian): its uncapped largest row sum (Gershgorin)."""
     grad, hess, blocks, _, _ = work
@@ -400,7 +400,7 @@ def _step_size(q, front, rear, axes, intact, stiffness, lengths, scale, work):
     return rows.max() if n else 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap, scale, work, t_work, system):
     """Increments ``u`` (3 n, updated in place from its initial guess) minimising the tick's incremental energy;
     returns the number of Newton steps, -1 if FORCE_TOLERANCE was not met.
@@ -468,7 +468,7 @@ def _solve_tick(q, u, lengths, limits, front, rear, axes, intact, stiffness, cap
     return -1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _banded_step(z, work, limits, gamma, floor, active, count, front, rear, dz):
     """The Newton step of the sliding bodies into ``dz`` (the sticking ones' already there), through the reduced
     system in body order (banded Cholesky: a small shape's, about a row's width squared per body)."""
@@ -529,7 +529,7 @@ def _banded_step(z, work, limits, gamma, floor, active, count, front, rear, dz):
         dz[dofs[a]] = step[a]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _sparse_step(z, work, limits, gamma, floor, active, front, rear, intact, system, dz):
     """``_banded_step`` through the whole system in nested dissection order (``cholesky``): a sticking body's rows
     are the identity's, so the pattern and its factor's are the shape's whatever slides."""
@@ -604,7 +604,7 @@ def _sparse_step(z, work, limits, gamma, floor, active, front, rear, intact, sys
                 dz[3 * i + j] = x[position[i], j]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _workspace(n, links, sparse):
     """The arrays one evaluation of ``_residual`` fills: gradient, Hessian (dense for the banded solver, (0, 0)
     else), its 3 x 3 blocks (per body, then per link; none for the banded solver), gradient step and prox."""
@@ -613,7 +613,7 @@ def _workspace(n, links, sparse):
     return np.empty(3 * n), hess, blocks, np.empty(3 * n), np.empty(3 * n)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _solve_ticks(q, last, lengths, limits, front, rear, axes, intact, stiffness, cap, rho, record, states,
                  first_tick, field_every, modes, constants, factor, pattern):
     """Advance the poses ``q`` (n, 3, in place) through the ticks of ``lengths`` / ``limits``; ``last`` holds the

@@ -37,7 +37,7 @@ def pressure_trajectory(
                        int(n_ticks), periods, float(alpha), float(actuator.tau_inflate), float(actuator.tau_vent))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _trajectory(p0, phases, t0, tick, n_ticks, periods, alpha, tau_inflate, tau_vent):
     """Per tick and bellows: the time spent in the state the tick starts in, then in the other; each part maps
     p -> target + (p - target) * decay, composed into one affine map, applied in sequence (compiled: a tick without

@@ -141,7 +141,7 @@ class QuasiStaticWorld(QuasiStatic):
             self._build_paths()
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _solve_ticks(s, extension, limits, order, starts, pair_link, pair_sign, stiffness, cap, record, states, sigma,
                  capped, guess_from, first_tick, field_every, modes, constants, factor, rest_xy, axis_xy):
     """Advance the displacements ``s`` (in place) through the ticks of ``extension`` / ``limits``: one exact solve
@@ -312,7 +312,7 @@ STUCK = 1e-14
 """m: a tick's displacement this small is a body at rest (the programme's rounding), not one sliding."""
 
 
-@numba.njit(cache=True, inline="always")  # a call would cost more than a small chain's solve
+@numba.njit(cache=True, nogil=True, inline="always")  # a call would cost more than a small chain's solve
 def _try_pattern(a, m, order, limits, offsets, k, cap, sigma, capped, d, work):
     """The minimiser of one piece's incremental energy, found from a guess of how it moves: into ``d``, True, when
     found; False when ``PATTERN_TRIES`` guesses fail (``d`` then holds nothing useful).

@@ -178,7 +178,7 @@ class World(Bellows):
         self.client = None
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _rotate(q, v):
     """v turned by the unit quaternion q = (x, y, z, w)."""
     x, y, z, w = q[0], q[1], q[2], q[3]
@@ -188,7 +188,7 @@ def _rotate(q, v):
                      v[2] + 2 * (w * cz + x * cy - y * cx)])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _link_forces(positions, orientations, front, rear, intact, axes, rest, last_length, last_shear, last_turn, h,
                  axial_stiffness, stiffness, force, torque):
     """Every intact link's spring-damper force and torque on its two bodies, summed into ``force`` and ``torque``
