@@ -258,13 +258,19 @@ def _cmd_run(args) -> int:
     try:
         # until its first step ends, the bar says what is under way (a large world is built and warmed up for
         # minutes), and it is redrawn every second while Python runs (building the world, between advances)
-        with video as recorder, tqdm(total=config.steps + 1, unit="step", disable=args.quiet,
-                                     desc=f"{name} {learner_name}: building the world of {bodies:,} bodies, warming "
-                                          f"it up and measuring step 0") as bar, redrawn(bar):
+        with video as recorder, tqdm(total=config.steps + 1, unit="step", disable=args.quiet, smoothing=0,
+                                     desc=f"{name} {learner_name}: building the world of {bodies:,} bodies (a first "
+                                          f"run compiles its solver, once), warming it up and measuring step 0"
+                                     ) as bar, redrawn(bar):
             def progress(step, records):
-                if step == 0:
-                    bar.set_description_str(f"{name} {learner_name}", refresh=False)
-                bar.update(1)
+                if step == 0 and not bar.disable:  # the time left is the later steps' rate: step 0 also built
+                    bar.set_description_str(f"{name} {learner_name}", refresh=False)  # (and compiled) the world
+                    bar.reset()
+                    bar.initial = 1
+                    bar.update(1)
+                    bar.last_print_t = bar.start_t = bar._time()
+                else:
+                    bar.update(1)
                 if records.n_steps:  # units on clocks of their own record a step once the next is under way
                     bar.set_postfix_str(f"Ubar {records.last_ubar:+.2f} mm/cycle")
                 if recorder is not None:

@@ -84,7 +84,8 @@ def test_a_runs_bar_says_the_world_is_being_built_until_its_first_step_ends(tmp_
                            str(tmp_path / "run"))
     assert code == 0, err
     first, *rest = [line for line in err.replace("\r", "\n").splitlines() if line.strip()]
-    assert first.startswith("chain-2 thermal: building the world of 3 bodies, warming it up and measuring step 0: ")
+    assert first.startswith("chain-2 thermal: building the world of 3 bodies (a first run compiles its solver, once), "
+                            "warming it up and measuring step 0: ")
     assert rest[-1].startswith("chain-2 thermal: 100%")
 
 
@@ -105,3 +106,30 @@ def test_the_compiled_physics_lets_the_progress_clock_run():
                     if isinstance(value, numba.core.registry.CPUDispatcher) and value.__module__ == loaded.__name__]
     assert len(kernels) >= 20
     assert [name for name, kernel in kernels if not kernel.targetoptions.get("nogil")] == []
+
+
+def test_the_run_s_time_left_leaves_out_its_first_step(capsys, monkeypatch, tmp_path):
+    """Step 0 builds the world (and, on a first run, compiles the solver: 15 s against a step's 0.1 s): the bar's
+    time left comes from the steps after it. A fake clock: step 0 takes 100 s, each later step 1 s; after step 2 of
+    10, 8 steps are left at 1 s each (the old bar said 06:24, from 102 s for 2 steps)."""
+    import tqdm.std
+    from types import SimpleNamespace
+
+    import morphbench.experiment as experiment
+
+    clock = SimpleNamespace(now=1000.0)
+    monkeypatch.setattr(tqdm.std, "time", lambda: clock.now)
+
+    def fake_run(config, progress, recorder):
+        records = SimpleNamespace(n_steps=1, last_ubar=1.0)
+        for step, seconds in enumerate([100.0, 1.0, 1.0]):
+            clock.now += seconds
+            progress(step, records)
+        raise KeyboardInterrupt  # nothing to write: the bar is what is tested
+
+    monkeypatch.setattr(experiment, "run", fake_run)
+    code, _, err = run_cli(capsys, "run", str(SHAPES_DIR / "chain-2.toml"), "--steps", "10", "--out",
+                           str(tmp_path / "out"))
+    assert code != 0 and "interrupted" in err
+    last = err.split("\r")[-2] if "\r" in err else err
+    assert "3/11" in last and "<00:08" in last, last
