@@ -33,6 +33,7 @@ from morphbench.params import (
 )
 from morphbench.render.options import add_render_arguments, video_params_from_args
 from morphbench.rules import field_option, option_type
+from morphbench.identity import config_identity, stable_hash
 from morphbench.progress import announced, redrawn
 from morphbench.shapes.cli import add_shapes_commands
 from morphbench.shapes.loader import resolve_shape_path
@@ -79,7 +80,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--noise", type=field_option(EnvironmentParams, "noise"),
                      help=f"Gaussian measurement noise, mm/cycle (default {EnvironmentParams().noise:g})")
     _add_physics(run, default=None)
-    run.add_argument("--out", help="output directory (default runs/NAME-LEARNER-seedS)")
+    run.add_argument("--out", help="output directory (default runs/NAME-LEARNER-seedS-ID, ID a short hash of the "
+                                   "whole configuration: steps, sensor, noise, physics, ...)")
     run.add_argument("--overwrite", action="store_true",
                      help="replace an earlier run in --out (a directory holding only a run's files), whole")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -151,8 +153,9 @@ def _run_dir(out: str, overwrite: bool) -> Path:
     if path.is_dir():
         entries = set(os.listdir(path))
         if "summary.json" in entries and not overwrite:
-            raise ConfigError("--out", out, "a new directory: it already holds summary.json (pass --overwrite to "
-                                            "replace it)")
+            raise ConfigError("--out", out, "a new directory: it already holds summary.json, a run of this "
+                                            "configuration if the name is the default (pass --overwrite to replace "
+                                            "it, or another --out to keep both)")
         if entries and not overwrite:
             raise ConfigError("--out", out, f"a new or empty directory (it holds {sorted(entries)[0]})")
         if entries - RUN_FILES:
@@ -243,8 +246,11 @@ def _cmd_run(args) -> int:
     load_learner_class(config.learner)  # fail on a bad plug-in before simulating
     name = Path(args.config).stem
     learner_name = config.learner.rsplit(":", 1)[-1].lower()
-    # --out '' is refused (as bench refuses it), not taken for the default
-    out = _run_dir(f"runs/{name}-{learner_name}-seed{config.seed}" if args.out is None else args.out, args.overwrite)
+    # --out '' is refused (as bench refuses it), not taken for the default. The default names the configuration by a
+    # short hash of all it is (steps, sensor, noise, physics, ...): runs that differ never share a directory, and the
+    # same configuration, which gives the same records, finds its earlier run
+    default = f"runs/{name}-{learner_name}-seed{config.seed}-{stable_hash(config_identity(config, ''), 6)}"
+    out = _run_dir(default if args.out is None else args.out, args.overwrite)
     video = (open_recorder(config.shape, check_path(args.video, "--video", room=TEMPORARY_NAME_ROOM),
                            video_params_from_args(args, config.steps))
              if args.video else nullcontext())

@@ -325,3 +325,34 @@ def test_console_script_entry_point(tmp_path: Path):
     assert "final Ubar" in result.stdout
     assert {p.name for p in (tmp_path / "out").iterdir()} == RUN_FILES
     assert len(pd.read_parquet(tmp_path / "out" / "units.parquet")) == 4
+
+
+def test_default_run_directories_tell_configurations_apart(capsys, monkeypatch, tmp_path):
+    """The overview's commands one after another: runs that differ (steps, noise) get their own default directory;
+    the same configuration again finds its earlier run and says which option to pass."""
+    monkeypatch.chdir(tmp_path)
+    shape = str(SHAPES / "chain-2.toml")
+    written = []
+    for extra in ([], ["--noise", "0.5"], ["--steps", "3"]):
+        code, out, err = run_cli(capsys, "run", shape, "--steps", "2", "--quiet", *extra)
+        assert code == 0, err
+        written.append(out.split("records in ")[1].split(" ")[0])
+    assert len(set(written)) == 3 and all(w.startswith("runs/chain-2-thermal-seed0-") for w in written)
+    code, _, err = run_cli(capsys, "run", shape, "--steps", "2", "--quiet")
+    assert code == 2 and written[0].rstrip("/") in err and "--overwrite" in err and "another --out" in err
+
+
+def test_the_readme_main_job_prints_what_the_readme_shows(capsys, monkeypatch, tmp_path):
+    """The README's first command, run: its two lines as the README prints them (but for the wall time), the
+    directory included (its configuration's hash)."""
+    root = Path(__file__).resolve().parents[1]
+    readme = (root / "README.md").read_text(encoding="utf-8")
+    command = readme.split("```bash\n")[1].splitlines()[0].split("&& morphbench ")[1].split()
+    shown = readme.split("```text\n")[1].split("```")[0].splitlines()
+    command = [str(root / word) if word.endswith(".toml") else word for word in command]
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run_cli(capsys, *command, "--quiet")
+    assert code == 0, err
+    printed = out.splitlines()
+    assert printed[0].rsplit(",", 1)[0] == shown[0].rsplit(",", 1)[0]  # all but the wall time
+    assert printed[1] == shown[1]
