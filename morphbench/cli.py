@@ -22,6 +22,7 @@ from morphbench.params import (
     COUNT,
     DEFAULT_SEED,
     DEFAULT_STEPS,
+    LEARNER_HELP,
     PHYSICS_PRESET,
     PHYSICS_PRESETS,
     SEED,
@@ -55,17 +56,24 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="morphbench", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="morphbench", formatter_class=argparse.RawDescriptionHelpFormatter,
+                     description="morphbench: robotic matter, assemblies of units that each learn, on their own, when "
+                                 "to pump so that the whole moves.",
+                     epilog="examples:\n"
+                            "  morphbench run chain-2 --steps 100          a chain of 2 units learns (runs/...)\n"
+                            "  morphbench shapes list                      the shipped shapes\n"
+                            "  morphbench bench benchmarks/smoke.toml --out results/smoke   a suite and its report\n"
+                            "  morphbench COMMAND --help                   a command's options")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     run = sub.add_parser("run", help="learn a gait on a shape and write records, summary, a learning curve and the "
                                      "trajectory")
     run.add_argument("config", metavar="FILE",
-                     help="a morphology file (shapes/chain-3.toml) or a run configuration (examples/s6-damage.toml)")
+                     help="a morphology file (shapes/chain-3.toml), the name of a shipped shape (chain-3; see "
+                          "'morphbench shapes list') or a run configuration (examples/s6-damage.toml)")
     # Options default to None: given ones override the file, the others leave it as it is.
-    run.add_argument("--learner", help="thermal, flaky, averaged, adaptive, random (no learning), a centralized "
-                                        "cmaes, random-search or hill-climber, or a plug-in package.module:Class")
+    run.add_argument("--learner", help=LEARNER_HELP)
     run.add_argument("--steps", type=option_type(STEPS),
                      help=f"learning steps after the initial measurement (default {DEFAULT_STEPS})")
     learner, sensor = LearnerParams(), SensorParams()
@@ -75,7 +83,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--step-size", type=field_option(LearnerParams, "step_size"),
                      help=f"delta_s in cycles (default {learner.step_size:g})")
     run.add_argument("--cycles-per-step", type=field_option(LearnerParams, "cycles_per_step"),
-                     help=f"n_act, actuation cycles per learning step (default {learner.cycles_per_step})")
+                     help=f"pump cycles each learning step measures, from its phase change on (default "
+                          f"{learner.cycles_per_step}; a step lasts discard_cycles + these, "
+                          f"{learner.discard_cycles} + {learner.cycles_per_step} by default)")
     run.add_argument("--sensor", choices=SENSOR_KINDS, help=f"how units measure their motion (default {sensor.kind})")
     run.add_argument("--noise", type=field_option(EnvironmentParams, "noise"),
                      help=f"Gaussian measurement noise, mm/cycle (default {EnvironmentParams().noise:g})")
@@ -230,6 +240,20 @@ def _with_options(config, args):
     )
 
 
+def _say_backend(config, quiet: bool) -> None:
+    """A word on stderr when the sensor, not the shape, decides the physics: the camera renders its images in a
+    PyBullet scene, so a shape the default would simulate on a quasi-static model runs on PyBullet."""
+    from morphbench.physics import resolve_backend
+
+    scene = config.sensor.kind == "camera"
+    if quiet or not scene:
+        return
+    backend = resolve_backend(config.shape, config.physics, config.environment, scene=True)
+    if backend != resolve_backend(config.shape, config.physics, config.environment, scene=False):
+        print(f"morphbench: the camera sensor renders its images in a scene of the {backend} backend: this run is "
+              f"simulated there, not on the model the physics would pick without it", file=sys.stderr)
+
+
 def _cmd_run(args) -> int:
     from tqdm import tqdm
 
@@ -244,6 +268,7 @@ def _cmd_run(args) -> int:
     if args.steps is not None:
         check_events_happen(config, "--steps", str(args.steps))
     load_learner_class(config.learner)  # fail on a bad plug-in before simulating
+    _say_backend(config, args.quiet)
     name = Path(args.config).stem
     learner_name = config.learner.rsplit(":", 1)[-1].lower()
     # --out '' is refused (as bench refuses it), not taken for the default. The default names the configuration by a
@@ -311,13 +336,19 @@ def _cmd_render(args) -> int:
         print(f"phase maps in {path}")
         return 0
 
-    with tqdm(desc=f"replay {args.run_dir}", unit="step", disable=args.quiet) as bar:
-        def progress(done, total):
-            bar.total = total
-            bar.update(done - bar.n)
+    bars = []  # drawn at the replay's first step, after its checks: a run refused shows no bar before its error
 
+    def progress(done, total):
+        if not bars:
+            bars.append(tqdm(desc=f"replay {args.run_dir}", unit="step", total=total, disable=args.quiet))
+        bars[0].update(done - bars[0].n)
+
+    try:
         with _replayable(args.run_dir) as run_dir:
             path = render_run(run_dir, args.out, video_params_from_args(args), progress)
+    finally:
+        for bar in bars:
+            bar.close()
     print(f"video in {path}")
     return 0
 

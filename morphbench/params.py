@@ -114,6 +114,10 @@ FRICTION_TARGETS: tuple[str, ...] = get_args(FrictionTarget)
 """the bodies a friction event changes: every body, the active units', or the passive ones' (the dummy's)."""
 InitialMemory = Literal["measure", "-inf", "zero"]
 INITIAL_MEMORY_CHOICES: tuple[str, ...] = get_args(InitialMemory)
+LEARNER_HELP = ("thermal, flaky, averaged, adaptive, random (no learning), a centralized baseline (cmaes, "
+                "random-search, hill-climber) or a plug-in package.module:Class (its directory on PYTHONPATH)")
+"""How the command line names the learners (run, leaderboard): every built-in of learning.plugins.LEARNERS, which
+tests/test_cli.py holds it to."""
 PhysicsBackend = Literal["auto", "pybullet", "quasistatic", "dynamic"]
 PHYSICS_BACKENDS: tuple[str, ...] = get_args(PhysicsBackend)
 VideoView = Literal["auto", "side", "top"]
@@ -256,8 +260,13 @@ REFERENCE_PHYSICS = PhysicsParams(backend="pybullet", timestep=1 / 240, solver_i
 QUASISTATIC_PHYSICS = PhysicsParams(backend="quasistatic", timestep=1 / 200)
 """The inertia-free limit of the same assembly: the oracle of the PyBullet world, and a fast backend for chains."""
 
+DYNAMIC_PHYSICS = PhysicsParams(backend="dynamic")
+"""The same springs with inertia and stick-slip friction (morphbench.physics.dynamic): every body a planar rigid
+body, integrated in steps of ``dynamic_step`` (two per 1/120 s tick), linear in the assembly's size; for one layer
+on the ground at any friction. Only when named: 'auto' never picks it."""
+
 PHYSICS_PRESETS = {"default": DEFAULT_PHYSICS, "fast": FAST_PHYSICS, "reference": REFERENCE_PHYSICS,
-                   "quasistatic": QUASISTATIC_PHYSICS}
+                   "quasistatic": QUASISTATIC_PHYSICS, "dynamic": DYNAMIC_PHYSICS}
 PHYSICS_PRESET = Choices(tuple(PHYSICS_PRESETS))
 """a physics preset by name (a run configuration's [physics] preset, a suite's physics, --physics)."""
 

@@ -356,3 +356,39 @@ def test_the_readme_main_job_prints_what_the_readme_shows(capsys, monkeypatch, t
     printed = out.splitlines()
     assert printed[0].rsplit(",", 1)[0] == shown[0].rsplit(",", 1)[0]  # all but the wall time
     assert printed[1] == shown[1]
+
+
+def test_the_help_names_every_learner_and_shows_examples(capsys):
+    from morphbench.learning.plugins import LEARNERS
+    from morphbench.params import LEARNER_HELP
+
+    assert all(name in LEARNER_HELP for name in LEARNERS), [n for n in LEARNERS if n not in LEARNER_HELP]
+    code, out, _ = run_cli(capsys, "--help")
+    assert code == 0 and "``" not in out and "examples:\n  morphbench run chain-2" in out
+    for command in (["run", "--help"], ["leaderboard", "--help"]):
+        code, out, _ = run_cli(capsys, *command)
+        assert code == 0 and "averaged, adaptive" in " ".join(out.split())
+    code, out, _ = run_cli(capsys, "run", "--help")
+    assert "name of a shipped shape" in " ".join(out.split()) and "from its phase change" in " ".join(out.split())
+
+
+def test_the_camera_sensor_says_it_moves_the_run_to_pybullet(capsys):
+    from morphbench.cli import _say_backend
+    from morphbench.experiment import RunConfig
+    from morphbench.params import SensorParams
+
+    shape = load_shape(SHAPES / "chain-2.toml")
+    _say_backend(RunConfig(shape=shape, sensor=SensorParams(kind="camera")), quiet=False)
+    assert "camera sensor renders its images in a scene of the pybullet backend" in capsys.readouterr().err
+    _say_backend(RunConfig(shape=shape, sensor=SensorParams(kind="camera")), quiet=True)
+    _say_backend(RunConfig(shape=shape, sensor=SensorParams(kind="ideal")), quiet=False)
+    assert capsys.readouterr().err == ""
+
+
+def test_a_refused_replay_draws_no_progress_bar(capsys, tmp_path):
+    code, _, err = run_cli(capsys, "run", str(SHAPES / "chain-2.toml"), "--steps", "2", "--quiet", "--out",
+                           str(tmp_path / "run"))
+    assert code == 0, err
+    (tmp_path / "run" / "steps.parquet").write_text("not a table")
+    code, _, err = run_cli(capsys, "render", str(tmp_path / "run"), "--out", str(tmp_path / "a.mp4"))
+    assert code == 2 and "replay" not in err.split("error")[0] and err.count("\n") == 1, err

@@ -14,7 +14,7 @@ import functools
 import os
 import sys
 
-from morphbench.params import PHYSICS_PRESETS
+from morphbench.params import LEARNER_HELP, PHYSICS_PRESETS
 
 EXIT_FAILED_RUNS = 1
 EXIT_INTERRUPTED = 130
@@ -80,8 +80,7 @@ def add_bench_commands(subparsers) -> None:
                     "known for it; the built-ins' results are read from the stored reference table, not run. "
                     "Writes DIR/leaderboard.md and DIR/leaderboard.html (docs/leaderboard.md).")
     board.add_argument("learners", nargs="*", metavar="LEARNER",
-                       help="thermal, flaky, random, a centralized baseline or a plug-in package.module:Class (its "
-                            "directory on PYTHONPATH); none: the stored built-ins alone")
+                       help=f"{LEARNER_HELP}; none: the stored built-ins alone")
     board.add_argument("--out", metavar="DIR",
                        help="results directory of the learners' runs and the tables (default results/leaderboard)")
     board.add_argument("--tasks", nargs="+", metavar="TASK",
