@@ -232,3 +232,22 @@ def test_the_documented_example_runs():
     records = namespace["env"].records
     assert records.n_steps == namespace["env"].config.steps + 1
     assert records.steps().ubar.iloc[-5:].mean() > records.steps().ubar.iloc[:5].mean()
+
+
+def test_gymnasium_makes_the_central_env_by_its_id():
+    import gymnasium
+
+    env = gymnasium.make("morphbench.envs:morphbench/Central-v0", source="chain-2", steps=2)
+    try:
+        assert isinstance(env.unwrapped, CentralEnv)
+        observation, info = env.reset(seed=3)
+        assert observation.shape == (2,) and info["step"] == 0
+        made = [env.step(np.array([0.0, 0.4], dtype=np.float32)) for _ in range(2)]
+        assert made[-1][3] and not made[0][3]  # truncated after its 2 steps
+    finally:
+        env.close()
+    direct = CentralEnv("chain-2", steps=2)
+    try:
+        assert np.array_equal(direct.reset(seed=3)[0], observation)
+    finally:
+        direct.close()
