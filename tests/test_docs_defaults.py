@@ -217,3 +217,12 @@ def test_the_check_finds_a_wrong_default():
                       "--steps 60 --video grid-3x3.mp4 --video-speed 20\n```")
     assert not mismatches(f"with a {simulated_s(60) / 20:.0f}-second video of its {simulated_s(60) / 60:.1f} "
                           f"simulated minutes:\n\n```bash\nmorphbench run grid-3x3 --steps 60 --video-speed 20\n```")
+
+
+def test_the_leaderboard_page_counts_the_runs_a_learner_needs():
+    """docs/leaderboard.md's count of the runs one plug-in learner runs is the standard set's."""
+    from morphbench.bench.leaderboard import learner_suite, standard_suite
+
+    page = re.sub(r"\s+", " ", (ROOT / "docs" / "leaderboard.md").read_text("utf-8"))
+    stated = re.search(r"into `results/leaderboard/` \(([\d,]+) runs", page)
+    assert stated and int(stated.group(1).replace(",", "")) == len(learner_suite(standard_suite(), ["thermal"]).runs)
