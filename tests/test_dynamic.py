@@ -25,6 +25,7 @@ from morphbench.physics.dynamic import DynamicWorld, _stick_slip
 from morphbench.shapes import load_shape, rotate, shape_from_table
 
 from conftest import SHAPES_DIR, chain
+from test_planar import trajectory as world_trajectory
 
 DYNAMIC = dataclasses.replace(DEFAULT_PHYSICS, backend="dynamic")
 CURVE = np.arange(10) / 10
@@ -37,14 +38,8 @@ def grid(rows: int, columns: int, **sections):
 
 
 def trajectory(shape, phases, seconds=4.0, every=0.5, physics=DYNAMIC, environment=EnvironmentParams()):
-    """Each body's (x, y, heading) every ``every`` seconds: (samples, bodies, 3)."""
-    world = DynamicWorld(shape, physics, environment)
-    world.set_phases(phases)
-    out = []
-    for _ in range(round(seconds / every)):
-        world.advance(world.ticks_in(every))
-        out.append(world.q.copy())
-    return np.array(out)
+    """Each body's (x, y, heading) every ``every`` seconds on the dynamic world: (samples, bodies, 3)."""
+    return world_trajectory(DynamicWorld(shape, physics, environment), phases, seconds, every)
 
 
 def ubar_curve(shape, physics=DYNAMIC, phases=CURVE, cycles=4) -> np.ndarray:
