@@ -241,7 +241,7 @@ def _check_phase(learner: object, name: str) -> None:
 
 def learner_name(spec: str) -> str:
     """``spec`` checked by ``load_learner_class`` and named as ``--learner`` loads it again: a built-in by its key
-    (whatever its case), a plug-in by the spec as given. Not ``learner_spec`` of the class it loads: a class made by a
+    (whatever its case), a plug-in by the name as given. Not ``learner_spec`` of the class it loads: a class made by a
     factory is ``module:make.<locals>.C`` there, which no import reaches."""
     cls = load_learner_class(spec)
     return learner_spec(cls) if cls in LEARNERS.values() else spec.strip()
