@@ -5,6 +5,22 @@
     python benchmarks/cost_per_unit.py --sheets-only --sheet-seconds 1
     python benchmarks/cost_per_unit.py --sheets-only --banded    # the sheets on the banded solver, up to 1,024 units
     python benchmarks/cost_per_unit.py --breakdown               # where a tick of the sparse solver goes, per sheet
+    python benchmarks/cost_per_unit.py --run-loop                # sheets of 100 to 10,000 units learning on the
+                                                                 # dynamic backend, through the run loop
+    git archive COMMIT | tar -x -C /tmp/before && python benchmarks/cost_per_unit.py --run-loop --compare /tmp/before
+                                                  # the same, and an earlier commit's package side by side
+
+``--run-loop`` measures what issue 36's targets are about: CPU seconds per simulated second of a learning run of a
+square sheet (no dummies, bellows along x and y; 100, 1,024, 4,096 and 10,000 units) on ``--backend`` (dynamic by
+default) with the ideal sensor and the default learner, through the path ``morphbench run`` takes: a
+``experiment.driver.Driver`` of one run, its warm-up and learning steps (physics, sensing, validity checks, learners,
+records, the progress callback's ``last_ubar``), then its records and figures written as the command writes them.
+The figure is the CPU time of the warm-up and the steps over their simulated time (2 s and 4 s a step); building the
+world and writing the records are once per run, given in seconds beside it, and the physics' share (the world's
+``advance``) with the run loop's CPU beyond it. The cost exponent is fitted (least squares of log cost on log units)
+from 100 to 10,000 units, and given from each sheet to the next. Each sheet runs in a process of its own with
+``--compare`` (this checkout's package and the other's, one sheet after the other), after a run of a 3 x 3 sheet that
+loads numba's caches.
 
 Each row builds the shape, sets random phases (seed 0) and times ``advance`` over the simulated time (pressures,
 link forces or solves, friction; no sensing or learning), after a warm-up (a second, a quarter of the time for a
@@ -19,7 +35,12 @@ linear solver could not remove. Prints Markdown tables for benchmarks/RESULTS.md
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import platform
+import subprocess
+import sys
+import tempfile
 import time
 
 import numpy as np
@@ -36,6 +57,10 @@ SHAPES = [
 
 SHEETS = [10, 20, 32, 64, 100]
 """sides of the square sheets: 100, 400, 1,024, 4,096 and 10,000 units."""
+
+RUN_SHEETS = {10: 40, 32: 12, 64: 5, 100: 3}
+"""``--run-loop``: side of each square sheet (100, 1,024, 4,096 and 10,000 units) and the learning steps it runs
+after step 0 (4 simulated s each), a few CPU seconds of each."""
 
 
 def shape_of(kind: str, rows: int, columns: int):
@@ -115,6 +140,146 @@ def breakdown(side: int, ticks: int) -> dict:
             "system": system_time * 1e3, "solve": solve_time * 1e3, "sliding": float(active.mean())}
 
 
+def run_loop_cost(side: int, steps: int, backend: str = "dynamic") -> dict:
+    """A learning run of a side x side sheet on ``backend`` with the ideal sensor, as ``morphbench run`` makes it: CPU
+    seconds of building it, of its warm-up and steps (and of the world's ``advance`` among them), their simulated
+    seconds, and the CPU seconds of writing its records and figures. Written against the interfaces of the commit
+    before issue 36's run loop work too, so that ``--compare`` can time that commit's package with it."""
+    import dataclasses
+
+    from morphbench import plots
+    from morphbench.experiment.driver import Driver
+    from morphbench.experiment.run import RunConfig
+    from morphbench.params import PhysicsParams, SensorParams
+
+    physics = dataclasses.replace(PhysicsParams(), backend=backend)
+
+    def config(side: int, steps: int) -> RunConfig:
+        return RunConfig(shape=shape_of("sheet", side, side), physics=physics, sensor=SensorParams(kind="ideal"),
+                         steps=steps, seed=0)
+
+    def learn(config: RunConfig, timed: dict | None = None) -> Driver:
+        started = time.process_time()
+        driver = Driver([config])
+        world = driver.batch.worlds[0]
+        cls = type(world)
+        advance, spent = cls.advance, [0.0]
+
+        def timed_advance(self, *args, **kwargs):  # the physics: the world's ticks, its callbacks' pose reads
+            begun = time.process_time()
+            try:
+                return advance(self, *args, **kwargs)
+            finally:
+                spent[0] += time.process_time() - begun
+
+        built = time.process_time()
+        cls.advance = timed_advance
+        try:
+            with driver.batch:
+                driver.warm_up()
+                for step in range(config.steps + 1):
+                    if not driver.going():
+                        break
+                    driver.step(step)
+                    for index, records in enumerate(driver.records):  # what the progress bar reads each step
+                        if driver.outcome[index] is None and records.n_steps:
+                            float(records.last_ubar)
+                learned = time.process_time()
+                driver.finish()
+        finally:
+            cls.advance = advance
+        if timed is not None:
+            timed.update(build=built - started, learn=learned - built, physics=spent[0], simulated=world.time)
+        return driver
+
+    learn(config(3, 1))  # numba's caches loaded, the modules imported
+    timed = {"units": side * side, "links": len(shape_of("sheet", side, side).links), "steps": steps}
+    driver = learn(config(side, steps), timed)
+    outcome = driver.outcome[0]
+    if isinstance(outcome, BaseException):
+        raise outcome
+    started = time.process_time()
+    with tempfile.TemporaryDirectory() as directory:
+        def figures(path):
+            plots.learning_curve(outcome.steps(), outcome.units(), path / "learning_curve.png", title="cost")
+            plots.trajectory_figure(outcome.steps(), path / "trajectory.png", title="cost")
+
+        outcome.write(os.path.join(directory, "run"), figures)
+    timed["write"] = time.process_time() - started
+    return timed
+
+
+def run_loop_elsewhere(tree: str, side: int, steps: int, backend: str) -> dict:
+    """``run_loop_cost`` in a process of its own with the package of ``tree`` (a checkout of this or another
+    commit)."""
+    code = ("import json, sys; sys.path.insert(0, sys.argv[1]); import cost_per_unit; "
+            "print(json.dumps(cost_per_unit.run_loop_cost(int(sys.argv[2]), int(sys.argv[3]), sys.argv[4])))")
+    tree = os.path.abspath(tree)
+    out = subprocess.run([sys.executable, "-c", code, os.path.dirname(os.path.abspath(__file__)), str(side),
+                          str(steps), backend], env={**os.environ, "PYTHONPATH": tree}, cwd=tree,
+                         capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def fitted_exponent(units, costs) -> float:
+    """The least-squares slope of log cost against log units."""
+    return float(np.polyfit(np.log(units), np.log(costs), 1)[0])
+
+
+def run_loop_table(args) -> None:
+    """``--run-loop``: the sheets' learning runs (each the best of ``--repeat``), and with ``--compare`` the other
+    checkout's side by side, the two alternating."""
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    sheets = {side: args.run_steps or RUN_SHEETS.get(side, 1) for side in args.sides}
+    compare = ["before: ", "after: "] if args.compare else [""]
+    print(f"{args.backend} backend, ideal sensor, thermal learner, seed 0, best of {args.repeat}: CPU s per simulated "
+          "s of the warm-up and the learning steps (physics, sensing, validity, learners, records), the world's "
+          "advance alone and the run loop beyond it; CPU s of building the run and of writing its records and "
+          "figures\n")
+    print("| square sheet | units | links | steps | simulated s | " + " | ".join(
+        f"{label}{column}" for label in compare for column in (
+            "CPU s per simulated s", "physics, s per simulated s", "run loop beyond physics, s per simulated s",
+            "build, s", "write, s")) + (" | after / before |" if args.compare else " |"))
+    print("|---" * (5 + 5 * len(compare) + (1 if args.compare else 0)) + "|")
+    rows = {label: [] for label in compare}
+    for side, steps in sheets.items():
+        measured = {label: [] for label in compare}
+        for _ in range(args.repeat):
+            for label in compare:
+                if args.compare:
+                    tree = args.compare if label == "before: " else here
+                    measured[label].append(run_loop_elsewhere(tree, side, steps, args.backend))
+                else:
+                    measured[label].append(run_loop_cost(side, steps, args.backend))
+        cells = []
+        for label in compare:
+            runs = measured[label]
+            simulated = runs[0]["simulated"]
+            best = {key: min(run[key] for run in runs) for key in ("learn", "physics", "build", "write")}
+            beyond = min(run["learn"] - run["physics"] for run in runs)
+            rows[label].append((runs[0]["units"], best["learn"] / simulated))
+            cells += [f"{best['learn'] / simulated:.4f}", f"{best['physics'] / simulated:.4f}",
+                      f"{beyond / simulated:.4f}", f"{best['build']:.2f}", f"{best['write']:.2f}"]
+        ratio = f" {rows['after: '][-1][1] / rows['before: '][-1][1]:.2f} |" if args.compare else ""
+        some = measured[compare[-1]][0]
+        print(f"| {side} x {side} | {some['units']:,} | {some['links']:,} | {steps} | {some['simulated']:g} | "
+              + " | ".join(cells) + " |" + ratio, flush=True)
+    print()
+    for label in compare:
+        units, costs = (np.array(column) for column in zip(*rows[label]))
+        steps = ", ".join(f"{np.log(costs[i + 1] / costs[i]) / np.log(units[i + 1] / units[i]):.2f} "
+                          f"({units[i]:,} -> {units[i + 1]:,})" for i in range(len(units) - 1))
+        fitted = (units >= 100) & (units <= 10_000)
+        if fitted.sum() >= 2:
+            first, last = np.flatnonzero(fitted)[[0, -1]]
+            end_to_end = np.log(costs[last] / costs[first]) / np.log(units[last] / units[first])
+            print(f"{label or 'cost '}exponent from {units[first]:,} to {units[last]:,} units: fitted "
+                  f"{fitted_exponent(units[fitted], costs[fitted]):.2f}, end to end {end_to_end:.2f}; from each "
+                  f"sheet to the next {steps}")
+        else:
+            print(f"{label or 'cost '}exponent from each sheet to the next {steps}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per row")
@@ -125,8 +290,23 @@ def main() -> None:
                         "Hessians take gigabytes)")
     parser.add_argument("--breakdown", action="store_true", help="where a tick of the sparse solver goes, per sheet")
     parser.add_argument("--ticks", type=int, default=24, help="ticks timed per sheet with --breakdown")
+    parser.add_argument("--run-loop", action="store_true", help="learning runs of sheets of 100 to 10,000 units "
+                        "through the run loop (ideal sensor), CPU s per simulated s, and the cost exponent")
+    parser.add_argument("--backend", default="dynamic", help="with --run-loop: the physics backend (default dynamic)")
+    parser.add_argument("--run-steps", type=int, help="with --run-loop: learning steps of every sheet (default: "
+                        "40, 12, 5 and 3 from the smallest, 1 for another side)")
+    parser.add_argument("--sides", type=int, nargs="+", default=list(RUN_SHEETS), help="with --run-loop: the "
+                        "sheets' sides (default 10 32 64 100; 316 is 99,856 units)")
+    parser.add_argument("--repeat", type=int, default=1, help="with --run-loop: runs of each sheet (and tree), the "
+                        "best CPU time of each column kept")
+    parser.add_argument("--compare", metavar="TREE", help="with --run-loop: a checkout of an earlier commit to time "
+                        "side by side (each sheet in a process of its own, this checkout's too)")
     args = parser.parse_args()
-    print(f"# {time.strftime('%Y-%m-%d')} {platform.machine()}  python {platform.python_version()}")
+    print(f"# {time.strftime('%Y-%m-%d')} {platform.machine()} {_cpu_model()}, {os.cpu_count()} cores  "
+          f"python {platform.python_version()}")
+    if args.run_loop:
+        run_loop_table(args)
+        return
     if args.breakdown:
         print("| square sheet | units | CPU ms per tick | Newton steps per tick | bodies sliding | residual, ms | "
               "Newton system (assembled, factorised, solved), ms | its solve alone, ms | a tick beyond its Newton "
@@ -167,6 +347,18 @@ def main() -> None:
               flush=True)
     (first, low), (last, high) = costs[0], costs[-1]
     print(f"\nexponent (CPU) from {first} to {last} units: {np.log(high / low) / np.log(last / first):.2f}")
+
+
+def _cpu_model() -> str:
+    """The processor's model name (/proc/cpuinfo), else what platform says."""
+    try:
+        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as cpuinfo:
+            for line in cpuinfo:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown processor"
 
 
 if __name__ == "__main__":

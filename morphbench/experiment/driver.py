@@ -197,7 +197,7 @@ class Driver:
             banks = self._each(lambda i, m: m.end(*samples[i]), [measurements.get(i) for i in range(len(loops))])
             return (self._joined({i: moved[0] for i, moved in banks.items()}),
                     self._joined({i: moved[-1] for i, moved in banks.items()}),
-                    (np.stack([p for p, _ in samples]), np.stack([q for _, q in samples])))
+                    (_stacked([p for p, _ in samples]), _stacked([q for _, q in samples])))
         measurement = Measurement([self.joint_sensor], n_ticks, self.batch.unit_poses(), self.batch.ticks_in)
         positions, orientations = self.batch.advance_sampled_joined(n_ticks, measurement.every)
         moved = measurement.end(positions, orientations)[0].reshape(len(loops), -1)
@@ -216,7 +216,7 @@ class Driver:
         if noisy:
             noise = np.zeros(u_true.shape)
             for index in noisy:  # each unit draws from its own stream
-                noise[index] = [rng.normal(0.0, places.noise[index]) for rng in loops[index].noise_rngs]
+                noise[index] = loops[index].noise(places.noise[index])
         u_measured = sensed.ravel()[places.where] * to_mm_per_cycle + noise
         u_measured[~places.alive] = np.nan
         return u_measured, u_true
@@ -229,8 +229,9 @@ class Driver:
         if not len(going):
             return
         positions, orientations = self.batch.body_poses()
-        if RunLoop.all_inside([loops[i] for i in going], step, (samples[0][going], samples[1][going]),
-                              (positions[going], orientations[going])):
+        inside = (samples, (positions, orientations)) if len(going) == len(loops) else (  # all: not copied
+            (samples[0][going], samples[1][going]), (positions[going], orientations[going]))
+        if RunLoop.all_inside([loops[i] for i in going], step, *inside):
             return
         self._each(lambda i, loop: loop.check_physics(step, (samples[0][i], samples[1][i])), loops)
 
@@ -398,6 +399,11 @@ class Schedule:
             for r, clocks in enumerate(self._clocks()):
                 if clocks is not None:
                     clocks.sampled(*samples[r], self.now % self.every == 0)
+
+
+def _stacked(arrays: list[np.ndarray]) -> np.ndarray:
+    """``np.stack(arrays)``, without a copy of the one array of a batch of one."""
+    return arrays[0][None] if len(arrays) == 1 else np.stack(arrays)
 
 
 def _interrupted(exc: BaseException) -> bool:

@@ -173,8 +173,9 @@ class RunLoop:
                  on_tick: Callable[[WorldInterface], None] | None):
         n = config.shape.n_units
         self.config, self.controller, self.world, self.on_tick = config, controller, world, on_tick
-        self.noise_rngs = [np.random.default_rng(np.random.SeedSequence([config.seed, NOISE_STREAM, u]))
-                           for u in range(n)]
+        self._unit_bodies = np.array(config.shape.units, dtype=np.int64)
+        self._normals: tuple[np.ndarray, int] | None = None
+        """the units' standard normals read ahead (``noise``), and how many of them are used."""
         self.state = RunState.initial(n, config.environment.noise)
         self.events: dict[int, list[Event]] = {}
         for event in config.events:
@@ -193,13 +194,35 @@ class RunLoop:
         self.measured_ticks = world.ticks_in(lp.cycles_per_step * cycle)
         self._place()
 
+    @functools.cached_property
+    def noise_rngs(self) -> list[np.random.Generator]:
+        """Each unit's measurement noise stream, made when a run first has noise (most never do)."""
+        seed = self.config.seed
+        return [np.random.default_rng(np.random.SeedSequence([seed, NOISE_STREAM, u]))
+                for u in range(self.config.shape.n_units)]
+
+    def noise(self, sigma: float) -> np.ndarray:
+        """Each unit's next measurement noise (mm/cycle, unit order), ``rng.normal(0.0, sigma)`` from its own stream:
+        the same doubles, from its standard normals read ahead NOISE_BLOCK at a time (numpy's normal is 0.0 + sigma
+        times the next one), so a step costs no Python per unit."""
+        if self._normals is None or self._normals[1] == NOISE_BLOCK:
+            normals = np.empty((len(self.noise_rngs), NOISE_BLOCK))
+            for row, rng in zip(normals, self.noise_rngs):
+                rng.standard_normal(out=row)
+            self._normals = normals, 0
+        normals, used = self._normals
+        self._normals = normals, used + 1
+        return 0.0 + sigma * normals[:, used]
+
     def _place(self) -> None:
         """``position[u]``, where unit u sits (``RunState.position``), ``piece[u]``, the 1-based piece of the world
         it belongs to, and ``alive[u]``: only events change them (a shuffle, a cut, a damage), so they are found
         once after each step that has any, not every step."""
         self.position, self.alive = self.state.position(), self.state.alive()
-        piece_of_body = {body: k for k, piece in enumerate(self.world.pieces()) for body in piece}
-        self.piece = np.array([piece_of_body[self.config.shape.units[p]] for p in self.position]) + 1
+        piece_of_body = np.zeros(len(self.config.shape.bodies), dtype=np.int64)
+        for k, piece in enumerate(self.world.pieces()):
+            piece_of_body[piece] = k
+        self.piece = piece_of_body[self._unit_bodies[self.position]] + 1
 
     def apply_events(self, step: int) -> list[Event]:
         """The events of ``step``, applied in their order."""
@@ -251,12 +274,18 @@ class RunLoop:
                          self.piece, xy[position], heading[position], describe(applied), self.controller.memory())
 
 
+NOISE_BLOCK = 64
+"""standard normals read ahead from each unit's noise stream at a time (``RunLoop.noise``)."""
 MAX_TILT_DEG = 45.0
 """A body tipped further than this from upright has left the model: units slide upright on their four feet."""
 MAX_REACH_PER_CYCLE = 3.0
 """In bellows reaches per cycle, the fastest a body may move (see ``_Validity``)."""
 UPRIGHT_MARGIN = 1e-9
 """How far above cos(MAX_TILT_DEG) a body's upright component must be to pass without the tilt detector."""
+SQUARED_MARGIN = 1e-12
+"""relative margin of the squared spans that ``_Validity._surely_inside`` compares squared link lengths with."""
+LINKS_AT_ONCE = 8192
+"""links whose lengths ``_Validity._surely_inside`` finds at a time, in every frame."""
 LINK_MARGIN = 0.25
 """In bellows reaches, how far a link's length may leave the span its bellows holds it in (see ``_Validity``)."""
 
@@ -355,10 +384,24 @@ class _Validity:
                 return False
             if not (frame_positions[..., 2] - self.rest_height[bodies] <= self.height[bodies]).all():
                 return False
-            links, length = self._link_lengths(step, bodies, frame_positions)
-            if not ((length >= self.span[0][links]) & (length <= self.span[1][links])).all():
+            if not self._links_surely_within(step, bodies, frame_positions):
                 return False
         return bool((self._speeds(positions, previous)[1] <= self.max_speed).all())
+
+    def _links_surely_within(self, step: int, bodies: np.ndarray, positions: np.ndarray) -> bool:
+        """Whether every link of ``_links`` is surely within its span in each of the frames ``positions``, from its
+        squared length against its span's squared ends brought in by SQUARED_MARGIN (no square root: the length of
+        ``_link_lengths`` is within a few units in the last place of the root of the squared one, so a link that
+        passes here passes ``_check_links``; one that does not, or a length that is not finite, overflows or
+        underflows, is left to it)."""
+        _, front, rear, low, high = self._link_table(step, bodies)
+        for first in range(0, len(front), LINKS_AT_ONCE):  # a few megabytes at a time, whatever the assembly
+            block = slice(first, first + LINKS_AT_ONCE)
+            d = np.take(positions, front[block], axis=-2) - np.take(positions, rear[block], axis=-2)
+            squared = np.einsum("...i,...i->...", d, d)
+            if not ((squared >= low[block]) & (squared <= high[block])).all():
+                return False
+        return True
 
     def _speeds(self, positions: np.ndarray, previous: np.ndarray) -> tuple[float, np.ndarray]:
         """The cycles since the previous check, and every body's speed over them (m/cycle), from its positions then
@@ -368,19 +411,29 @@ class _Validity:
         moved = np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])  # hypot: no overflow when a body flew off
         return cycles, moved / cycles if cycles > 0 else np.zeros(moved.shape)
 
-    def _links(self, step: int, bodies: np.ndarray) -> tuple[list[int], np.ndarray, np.ndarray]:
+    def _links(self, step: int, bodies: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The links not cut by ``step`` with both bodies among ``bodies``, and their ends' columns in ``bodies``
         (kept while no cut changes them: they are asked twice a step)."""
+        return self._link_table(step, bodies)[:3]
+
+    def _link_table(self, step: int, bodies: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``_links``, and the squared ends of their spans brought in by SQUARED_MARGIN (none below for a span that
+        starts at or below 0), found again only when a cut changes them."""
         cut = frozenset(link for at, link in self.cuts if at <= step)
         key = (cut, len(bodies))
         if key not in self._link_cache:
             column = np.full(len(self.shape.bodies), -1)
             column[bodies] = np.arange(len(bodies))
-            links = [j for j in range(len(self.ends)) if j not in cut and (column[self.ends[j]] >= 0).all()]
-            self._link_cache[key] = links, column[self.ends[links, 0]], column[self.ends[links, 1]]
+            keep = (column[self.ends] >= 0).all(axis=1)
+            keep[sorted(cut)] = False
+            links = np.flatnonzero(keep)
+            short, long = self.span[0][links], self.span[1][links]
+            low = np.where(short > 0, short * short * (1 + SQUARED_MARGIN), -np.inf)
+            self._link_cache[key] = (links, column[self.ends[links, 0]], column[self.ends[links, 1]], low,
+                                     long * long * (1 - SQUARED_MARGIN))
         return self._link_cache[key]
 
-    def _link_lengths(self, step: int, bodies: np.ndarray, positions: np.ndarray) -> tuple[list[int], np.ndarray]:
+    def _link_lengths(self, step: int, bodies: np.ndarray, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``_links`` and each one's length in each of the frames ``positions`` (..., K, len(bodies), 3)."""
         links, front, rear = self._links(step, bodies)
         d = positions[..., front, :] - positions[..., rear, :]

@@ -41,6 +41,29 @@ class Draws:
         return values
 
 
+EXACT_MARGIN = 1e-12, 1e-300
+"""relative and absolute distance of a draw from numpy's exp(delta / T) within which ``accepts`` asks math.exp
+instead: numpy's exp is within a few units in the last place of the C library's (or of the smallest doubles, below
+1e-300), so a decision is taken from numpy's only when no such difference could change it."""
+
+
+def accepts(draws: np.ndarray, delta: np.ndarray, temperature: float) -> np.ndarray:
+    """Per worse trial (``delta`` < 0, mm/cycle), whether its ``draws`` accept it: draw < acceptance_probability(delta,
+    T), the Metropolis learner's own decision, at once over the units. numpy's exp decides every draw that is not
+    within EXACT_MARGIN of it; those few (none, nearly always) are decided by the learner's own math.exp, so every
+    decision is the one a learner object takes."""
+    if temperature == 0:
+        return np.zeros(len(draws), dtype=bool)
+    with np.errstate(over="ignore", under="ignore"):
+        probability = np.exp(delta / temperature)  # delta / inf is -0.0 -> 1.0, as math.exp gives it
+    decided = draws < probability
+    relative, floor = EXACT_MARGIN
+    close = np.flatnonzero(np.abs(draws - probability) <= relative * probability + floor)
+    for unit in close:
+        decided[unit] = draws[unit] < acceptance_probability(float(delta[unit]), temperature)
+    return decided
+
+
 class UnitArrays(Controller):
     """``rule`` 'thermal', 'flaky', 'averaged', 'adaptive' or 'random' for every unit of a run, unit u drawing from
     ``rngs[u]``."""
@@ -93,9 +116,8 @@ class UnitArrays(Controller):
         accepted[first] = True
         worse = rest[velocity[rest] < self._memory[rest]]
         accepted[rest] = True  # no draw: a trial at least as good is always accepted
-        for unit, draw in zip(worse, self.draws.next(worse)):
-            accepted[unit] = draw < acceptance_probability(velocity[unit] - self._memory[unit],
-                                                           self.params.temperature)
+        accepted[worse] = accepts(self.draws.next(worse), velocity[worse] - self._memory[worse],
+                                  self.params.temperature)
         self.phase[accepted] = self.trial[accepted]
         if self.rule == "averaged":
             self._memory[rest] = averaged_memory(self._memory[rest], velocity[rest], self.params.memory_weight)

@@ -62,6 +62,10 @@ class Bellows:
         """s, each active unit's pump period: the cycle time on its own clock (``set_clock_rates``)."""
         self.damage = ["" for _ in shape.units]
         """per active unit (unit order): '' (healthy) or a mode of DAMAGE_MODES."""
+        self._blocked = np.zeros(shape.n_units, dtype=bool)
+        """per active unit, whether its damage keeps its bellows from inflating ('no-inflate', 'open', 'dead')."""
+        self._dead = np.zeros(shape.n_units, dtype=bool)
+        """per active unit, whether it is dead (no pump, no vibration)."""
         self.link_stiffness = np.full(len(shape.links), shape.actuator.stiffness)
         """N/m, each link's axial stiffness (a bellows open to the air: ``ActuatorParams.open_stiffness``)."""
         self._stuck_length = np.full(len(shape.links), np.nan)
@@ -115,8 +119,9 @@ class Bellows:
     def _extending(self) -> np.ndarray:
         """1.0 for each link whose bellows can inflate (driven by a unit not damaged 'no-inflate', 'open' or
         'dead'), else 0.0."""
-        return np.array([u >= 0 and self.damage[u] not in ("no-inflate", "open", "dead") for u in self.link_units],
-                        dtype=float)
+        extends = self._actuated.copy()
+        extends[extends] = ~self._blocked[self.link_units[extends]]
+        return extends.astype(float)
 
     def _friction_limits(self, start: float, n_ticks: int, pumps: bool) -> np.ndarray:
         """(n_ticks, n_bodies) N, each body's friction limit on a uniform ground over the coming ticks: its friction
@@ -133,7 +138,7 @@ class Bellows:
         """(n_ticks, n_units) whether each unit's pump runs at the start of each coming tick (a dead one never)."""
         t = start + self.tick * np.arange(n_ticks)
         pumping = np.mod(t[:, None] / self.periods - self.phases, 1.0) < self.shape.actuator.alpha
-        return pumping & np.array([d != "dead" for d in self.damage])
+        return pumping & ~self._dead
 
     def set_damage(self, unit: int, mode: str) -> None:
         """Damage the active unit at ``unit`` (unit order, 0-based): 'no-inflate' (its bellows cannot extend; pump and
@@ -145,6 +150,7 @@ class Bellows:
         if self.damage[unit] == mode:
             return
         self.damage[unit] = mode
+        self._blocked[unit], self._dead[unit] = mode in ("no-inflate", "open", "dead"), mode == "dead"
         self._extends = self._extending()
         driven = self.link_units == unit
         actuator = self.shape.actuator

@@ -117,10 +117,8 @@ class DynamicWorld(Bellows):
         pressure_trajectory(self.pressure, phases, start, self.tick, 0, actuator, periods)  # its checks alone
         gate = self._actuated.astype(float) if pumps else np.zeros(len(self.link_units))
         lengths = self._rest_lengths(self.pressure[None])[0]  # the rest lengths now, where the first tick starts
-        limits = self._friction_limits(start, n_ticks, pumps)
-        if limits.strides[0] == 0:  # the same every tick (no vibration): one row, not one per tick
-            limits = limits[:1]
-        limits = np.ascontiguousarray(limits)
+        friction = self._base_friction * self._friction_scale  # as ``_friction_limits``, tick by tick
+        vibration = self.environment.vibration if pumps else 1.0
         modes, constants = NO_FIELD if self._field is None else self._field_modes
         field_every = 0 if self._field is None else max(1, round(FIELD_UPDATE_PERIOD / self.tick))
         springs = self._springs()
@@ -131,9 +129,10 @@ class DynamicWorld(Bellows):
         for end in ends:
             _integrate(self.q, self.v, pressure, lengths, begin, end, start, self.tick, phases, periods, actuator.alpha,
                        actuator.tau_inflate, actuator.tau_vent, gate, self._empty_pitch, self._strokes,
-                       self._extends, stuck, limits, self._front, self._rear, self._plane_axes, self.intact,
-                       springs, self._damping, actuator.max_force, self._mass, self._inertia, self._rho,
-                       self.substeps, self.tick / self.substeps, field_every, modes, constants, self._factor)
+                       self._extends, stuck, friction, self._weights, vibration, self._unit_bodies, self.phases,
+                       self.periods, self._dead, self._front, self._rear, self._plane_axes, self.intact, springs,
+                       self._damping, actuator.max_force, self._mass, self._inertia, self._rho, self.substeps,
+                       self.tick / self.substeps, field_every, modes, constants, self._factor)
             if on_tick is not None and end % every == 0:
                 self.pressure, self.time = pressure.copy(), start + end * self.tick
                 on_tick(end - 1)
@@ -227,8 +226,9 @@ def _step(q, v, rest, w, front, rear, axes, intact, springs, damping, cap, mass,
 
 @numba.njit(cache=True, nogil=True)
 def _integrate(q, v, pressure, lengths, first, last, t0, tick, phases, periods, alpha, tau_inflate, tau_vent, gate,
-               pitch, strokes, extends, stuck, limits, front, rear, axes, intact, springs, damping, cap, mass, inertia,
-               rho, steps, h, field_every, modes, constants, factor):
+               pitch, strokes, extends, stuck, friction, weights, vibration, unit_bodies, unit_phases, unit_periods,
+               dead, front, rear, axes, intact, springs, damping, cap, mass, inertia, rho, steps, h, field_every,
+               modes, constants, factor):
     """Advance poses ``q`` and velocities ``v`` (n, 3, in place) through ticks ``first`` to ``last`` (0-based, of an
     advance that started at ``t0``), ``steps`` steps of h per tick. Each tick's pressures are those of
     ``Bellows._pressures`` (the pressure law ``pressure._trajectory`` from ``pressure``, each link's pump ``phases``
@@ -237,15 +237,18 @@ def _integrate(q, v, pressure, lengths, first, last, t0, tick, phases, periods, 
     same numbers in the same order, found tick by tick instead of for every tick of the advance at once: nothing
     here grows with the number of ticks. ``pressure`` and ``lengths`` (each link's rest length) are where the first
     tick starts on entry and where the last ends on return; the rest lengths are interpolated linearly inside a tick.
-    ``limits`` are each body's friction limit on a uniform ground, a row per tick of the advance or one row for
-    every tick, scaled by the friction field (``friction.factors``) at the bodies' places, read into ``factor`` (kept
-    between calls) when the tick's index is a multiple of field_every > 0."""
+    Each body's friction limit on a uniform ground is that of ``_friction_limits``: its ``friction`` (its scale's)
+    times its weight, a unit's times ``vibration`` at the ticks its pump starts running (``_pumping``: by its unit's
+    phase and period, unless ``dead``; 1.0 is none), scaled by the friction field (``friction.factors``) at the
+    bodies' places, read into ``factor`` (kept between calls) when the tick's index is a multiple of field_every > 0."""
     n, n_links = q.shape[0], len(front)
     force = np.zeros((n, 3))
     jac, strain = np.empty((3, 6)), np.empty(3)
     z, metric = np.empty(3), np.empty(3)
     rest = np.empty(n_links)
-    w = np.empty(n)
+    w, limits = np.empty(n), np.empty(n)
+    for i in range(n):
+        limits[i] = friction[i] * weights[i]
     start = lengths.copy()
     for k in range(first, last):
         # the tick of ``_trajectory(p, ..., t0, tick, n_ticks, ...)``'s row k: it starts at t0 + tick * k
@@ -256,9 +259,14 @@ def _integrate(q, v, pressure, lengths, first, last, t0, tick, phases, periods, 
             lengths[link] = length if math.isnan(stuck[link]) else stuck[link]
         if field_every > 0 and k % field_every == 0:
             factors(q[:, 0].copy(), q[:, 1].copy(), modes, constants, factor)
-        at = k if limits.shape[0] > 1 else 0
+        if vibration != 1.0:
+            time = t0 + tick * k  # the tick's start, as ``_pumping`` takes it
+            for u in range(len(unit_bodies)):
+                b = unit_bodies[u]
+                pumping = (time / unit_periods[u] - unit_phases[u]) % 1.0 < alpha and not dead[u]
+                limits[b] = friction[b] * (vibration if pumping else 1.0) * weights[b]
         for i in range(n):
-            w[i] = limits[at, i] * factor[i] if field_every > 0 else limits[at, i]
+            w[i] = limits[i] * factor[i] if field_every > 0 else limits[i]
         for s in range(steps):
             fraction = (s + 1) / steps
             for link in range(n_links):
