@@ -150,8 +150,9 @@ def _warnings_unless_failed(command):
 def _add_physics(parser: argparse.ArgumentParser, default: str | None) -> None:
     parser.add_argument("--physics", choices=PHYSICS_PRESET.values, default=default,
                         help="physics: default (quasistatic on the ground, fast for stacks), fast (PyBullet), "
-                             "reference (PyBullet, finer) or quasistatic (springs and friction without inertia, exact; "
-                             "one layer on the ground)")
+                             "reference (PyBullet, finer), quasistatic (springs and friction without inertia, exact; "
+                             "one layer on the ground) or dynamic (the same springs with inertia and sticking "
+                             "friction, linear in the units; one layer on the ground)")
 
 
 def _run_dir(out: str, overwrite: bool) -> Path:

@@ -297,3 +297,15 @@ def test_pieces_are_found_for_every_unit_after_a_cut():
             expected = [piece_of_body[shape.units[p]] + 1 for p in loop.position]
             assert loop.piece.tolist() == expected
             assert len(set(expected)) == (1 if step == 0 else 2)
+
+
+def test_the_memory_estimate_counts_what_each_world_holds():
+    """The dynamic world holds nothing per tick: its estimate does not grow with the advance, the others' does, and
+    the planar solver's adds its Newton systems."""
+    from morphbench.physics import memory_estimate
+
+    shape = sheet(10)
+    dynamic = [memory_estimate(shape, DYNAMIC, ticks=ticks) for ticks in (1, 1000)]
+    planar = [memory_estimate(shape, PHYSICS_PRESETS["default"], ticks=ticks) for ticks in (1, 1000)]
+    assert dynamic[0] == dynamic[1] < planar[0] < planar[1]
+    assert 0 < dynamic[0] < 100 * len(shape.bodies) * 8 * 16

@@ -132,13 +132,10 @@ def can_batch(shape, physics: PhysicsParams, environment: EnvironmentParams = En
 
 def memory_estimate(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams(),
                     scene: bool = False, ticks: int = 0, copies: int = 1) -> float:
-    """bytes a run of ``shape`` holds that grow with its size: the pressures, rest lengths and friction limits of its
-    longest advance (``ticks``, 8 bytes per tick and link or body in each), and the planar solver's Newton systems
-    (copies of a batch hold that many)."""
-    bodies, links = len(shape.bodies), len(shape.links)
-    solver = PlanarWorld.solver_memory(bodies, links) \
-        if resolve_backend(shape, physics, environment, scene) == PlanarWorld.backend else 0.0
-    return copies * (ticks * (4 * links + 2 * bodies) * 8 + solver)
+    """bytes a run of ``shape`` holds that grow with its size, as the world ``resolve_backend`` picks counts them for
+    its longest advance of ``ticks`` (``memory``; copies of a batch hold that many)."""
+    backend = BACKENDS[resolve_backend(shape, physics, environment, scene)]
+    return copies * backend.memory(len(shape.bodies), len(shape.links), ticks)
 
 
 def available_memory() -> float:

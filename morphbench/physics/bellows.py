@@ -28,6 +28,12 @@ class Bellows:
     """The base of every world (physics.protocol.WorldInterface); a subclass sets ``tick`` (s), ``backend`` and
     moves the bodies."""
 
+    @staticmethod
+    def memory(bodies: int, links: int, ticks: int) -> float:
+        """bytes a world of that many bodies and links holds that grow with its size, over an advance of ``ticks``:
+        the pressures, rest lengths and friction limits of every tick (8 bytes per tick and link or body in each)."""
+        return ticks * (4 * links + 2 * bodies) * 8
+
     tick: float
     backend: str
     scene: Scene | None = None

@@ -103,6 +103,12 @@ class DynamicWorld(Bellows):
     poses_of = PlanarWorld.poses_of
     _springs = PlanarWorld._springs
 
+    @staticmethod
+    def memory(bodies: int, links: int, ticks: int) -> float:
+        """bytes it holds that grow with its size: each body's state, mass and friction, each link's springs and
+        geometry (about 16 and 12 doubles); an advance holds nothing per tick (its ticks are made in the loop)."""
+        return (16 * bodies + 12 * links) * 8
+
     def poses(self, which=None) -> tuple[np.ndarray, np.ndarray]:
         index = np.arange(len(self.shape.bodies)) if which is None else which
         positions, orientations = self.poses_of(self.q[None], index)

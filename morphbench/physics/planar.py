@@ -32,7 +32,7 @@ import numpy as np
 from morphbench.errors import ConfigError
 from morphbench.params import EnvironmentParams, PhysicsParams
 from morphbench.physics import cholesky
-from morphbench.physics.bellows import QuasiStatic
+from morphbench.physics.bellows import Bellows, QuasiStatic
 from morphbench.physics.friction import factors
 from morphbench.shapes.model import Shape
 
@@ -101,12 +101,14 @@ class PlanarWorld(QuasiStatic):
         """s, the pumps' clock (nothing needs settling: bodies start at rest on the ground)."""
 
     @staticmethod
-    def solver_memory(bodies: int, links: int) -> float:
-        """bytes the solver of a shape of that many bodies and links holds: the Newton systems' factor and blocks,
-        or the banded solver's dense Hessians."""
+    def memory(bodies: int, links: int, ticks: int) -> float:
+        """``Bellows.memory`` and the solver's: the Newton systems' factor and blocks, or the banded solver's dense
+        Hessians."""
         if bodies >= SPARSE_FROM:
-            return cholesky.memory(bodies) + 2 * (bodies + links) * 9 * 8
-        return 3 * (3 * bodies) ** 2 * 8
+            solver = cholesky.memory(bodies) + 2 * (bodies + links) * 9 * 8
+        else:
+            solver = 3 * (3 * bodies) ** 2 * 8
+        return Bellows.memory(bodies, links, ticks) + solver
 
     @property
     def state(self) -> np.ndarray:
