@@ -30,3 +30,22 @@ def test_events_are_marked_at_their_step():
         assert np.allclose(fig.axes[0].get_lines()[0].get_ydata(), calm.steps().ubar)
     finally:
         plt.close(fig)
+
+
+def test_a_large_assembly_s_phases_are_one_artist():
+    """Beyond LEGEND_UNITS units the kept phases are one scatter (a 10,000-unit sheet drew one line per unit)."""
+    import pandas as pd
+
+    from morphbench.plots import LEGEND_UNITS
+
+    n, steps = 50, 4
+    units = pd.DataFrame({"unit": np.repeat(np.arange(1, n + 1), steps), "step": np.tile(np.arange(steps), n),
+                          "phase_kept": np.linspace(0, 1, n * steps, endpoint=False)})
+    table = pd.DataFrame({"step": np.arange(steps), "ubar": 1.0, "ubar_true": 1.0, "acceptance": 0.5, "event": ""})
+    fig = learning_curve_figure(table, units)
+    try:
+        phases = fig.axes[2]
+        assert n > LEGEND_UNITS and len(phases.collections) == 1 and not phases.get_lines()
+        assert len(phases.collections[0].get_offsets()) == n * steps and phases.get_legend() is None
+    finally:
+        plt.close(fig)
