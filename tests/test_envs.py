@@ -1,6 +1,7 @@
 """The environments: PettingZoo's and Gymnasium's own API checks, and the run loop of ``morphbench run`` underneath
 (fed a Thermal run's phases, an environment records that run)."""
 
+import dataclasses
 import re
 import warnings
 
@@ -13,7 +14,7 @@ from pettingzoo.test import parallel_api_test
 from morphbench.envs import CentralEnv, ParallelEnv
 from morphbench.errors import ConfigError, EpisodeOver
 from morphbench.experiment import RunConfig, parse_events, run
-from morphbench.params import PHYSICS_PRESETS, EnvironmentParams
+from morphbench.params import PHYSICS_PRESETS, EnvironmentParams, SensorParams
 from morphbench.shapes import load_shape
 
 from conftest import EXAMPLES_DIR, ROOT, SHAPES_DIR
@@ -251,3 +252,29 @@ def test_gymnasium_makes_the_central_env_by_its_id():
         assert np.array_equal(direct.reset(seed=3)[0], observation)
     finally:
         direct.close()
+
+
+def test_the_observation_space_is_bounded_where_the_physics_bounds_it():
+    """Ideal sensor, no noise: a unit observes at most what the physics lets a body move (a faster one ends the
+    episode with a PhysicsError); noise, or a sensor whose flow can err, is unbounded."""
+    from morphbench.envs.parallel import observation_bound
+    from morphbench.experiment.run import max_speed
+
+    shape = load_shape(SHAPES_DIR / "chain-2.toml")
+    ideal = RunConfig(shape=shape, sensor=SensorParams(kind="ideal"), steps=3)
+    bound = observation_bound(ideal)
+    assert 1000 * max_speed(shape) < bound < 1000 * max_speed(shape) * (1 + 1e-6)
+    env = CentralEnv(ideal)
+    try:
+        assert env.observation_space.high[0] == np.float32(bound)
+        observation, _ = env.reset(seed=0)
+        assert env.observation_space.contains(observation)
+        for _ in range(3):
+            observation = env.step(np.array([0.0, 0.4], dtype=np.float32))[0]
+            assert env.observation_space.contains(observation)
+    finally:
+        env.close()
+    noisy = dataclasses.replace(ideal, environment=EnvironmentParams(noise=0.5))
+    later = dataclasses.replace(ideal, events=parse_events([{"step": 2, "kind": "noise", "sigma": 0.3}], "t", 2, 2))
+    optical = dataclasses.replace(ideal, sensor=dataclasses.replace(ideal.sensor, kind="optical"))
+    assert all(observation_bound(c) == np.inf for c in (noisy, later, optical))

@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from morphbench.envs.parallel import MAX_ACTION, SOURCE, ParallelEnv  # first: it says how to install gymnasium
+# first: it says how to install gymnasium
+from morphbench.envs.parallel import MAX_ACTION, SOURCE, ParallelEnv, observation_bound
 import gymnasium
 from gymnasium.spaces import Box
 from morphbench.errors import ActionError
@@ -33,7 +34,8 @@ class CentralEnv(gymnasium.Env):
         self.parallel = ParallelEnv(source, steps=steps, physics=physics)
         n = len(self.parallel.possible_agents)
         self.action_space = Box(0.0, 1.0, shape=(n,), dtype=np.float32)
-        self.observation_space = Box(-np.inf, np.inf, shape=(n,), dtype=np.float32)
+        bound = observation_bound(self.parallel.config)
+        self.observation_space = Box(-bound, bound, shape=(n,), dtype=np.float32)
 
     @property
     def records(self):

@@ -41,7 +41,7 @@ from morphbench.experiment.clocks import clocked
 from morphbench.experiment.config import load_run_config
 from morphbench.experiment.records import RunRecords
 from morphbench.experiment.driver import Driver
-from morphbench.experiment.run import RunConfig
+from morphbench.experiment.run import RunConfig, max_speed
 from morphbench.learning.base import wrap_phase
 from morphbench.learning.plugins import Decentralized, as_phase, learner_spec, unit_rng
 from morphbench.params import COUNT, PHYSICS_PRESET, PHYSICS_PRESETS, SEED, PhysicsParams
@@ -87,6 +87,17 @@ def env_config(source: RunConfig | str | Path, steps: int | None, physics: str |
     return config
 
 
+def observation_bound(config: RunConfig) -> float:
+    """mm/cycle, the largest |velocity| a unit can observe: with the ideal sensor and no noise, what the physics
+    allows (a body faster than ``run.max_speed`` stops the run with a PhysicsError, which ends the episode), a float32
+    above it; infinite where the measurement is not bounded by the physics (noise, at the start or by an event; an
+    optical or camera sensor, whose flow can err)."""
+    noisy = config.environment.noise > 0 or any(getattr(event, "sigma", 0) > 0 for event in config.events)
+    if noisy or config.sensor.kind != "ideal":
+        return float(np.inf)
+    return float(np.nextafter(np.float32(1000.0 * max_speed(config.shape)), np.float32(np.inf)))
+
+
 class ParallelEnv(PettingZooParallelEnv):
     """See the module docstring. ``config``: the episode's run configuration (its seed the last reset's)."""
 
@@ -99,8 +110,8 @@ class ParallelEnv(PettingZooParallelEnv):
         self.agents: list[str] = []
         # One space object per agent, the same at every call (PettingZoo seeds and compares them by identity).
         self._action_spaces = {a: Box(0.0, 1.0, shape=(1,), dtype=np.float32) for a in self.possible_agents}
-        self._observation_spaces = {a: Box(-np.inf, np.inf, shape=(1,), dtype=np.float32)
-                                    for a in self.possible_agents}
+        bound = observation_bound(self.config)
+        self._observation_spaces = {a: Box(-bound, bound, shape=(1,), dtype=np.float32) for a in self.possible_agents}
         self.records: RunRecords | None = None
         """the current (or last) episode's records."""
         self._driver: Driver | None = None

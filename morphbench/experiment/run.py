@@ -290,6 +290,18 @@ LINK_MARGIN = 0.25
 """In bellows reaches, how far a link's length may leave the span its bellows holds it in (see ``_Validity``)."""
 
 
+def bellows_reach(shape: Shape, strokes: np.ndarray | None = None) -> float:
+    """m, a bellows' reach in ``shape``: its longest stroke, at most its largest body's size."""
+    strokes = link_spans(shape)[1] if strokes is None else strokes
+    return min(max([shape.actuator.stroke, *strokes]), max(max(body.size) for body in shape.bodies))
+
+
+def max_speed(shape: Shape) -> float:
+    """m/cycle, the fastest a body of ``shape`` may move before a run of it stops with a PhysicsError (``_Validity``):
+    MAX_REACH_PER_CYCLE bellows reaches per cycle."""
+    return MAX_REACH_PER_CYCLE * bellows_reach(shape)
+
+
 class _Validity:
     """Checks that a world is still in the model's validity, from the bodies' poses at each check and the units'
     poses at every sample of the measured cycles (the sensors' samples), so that motion inside the window counts, not
@@ -323,9 +335,9 @@ class _Validity:
         self.rest_height = shape.placed_positions()[:, 2]
         self.height = np.array([body.size[2] for body in shape.bodies], dtype=float)
         pitch, strokes = link_spans(shape)
-        reach = min(max([shape.actuator.stroke, *strokes]), max(max(body.size) for body in shape.bodies))
+        reach = bellows_reach(shape, strokes)
         self.max_speed = MAX_REACH_PER_CYCLE * reach
-        """m/cycle."""
+        """m/cycle (``max_speed``)."""
         actuator = shape.actuator
         give = actuator.max_force / actuator.stiffness + LINK_MARGIN * np.minimum(strokes, reach)
         self.span = pitch - give, pitch + strokes + give
