@@ -18,6 +18,7 @@ import pybullet
 
 from morphbench.experiment import RunConfig, measure, run, scan
 from morphbench.experiment.scan import motion_at, velocity_at
+from morphbench.files import write_text
 from morphbench.params import (
     DEFAULT_PHYSICS,
     FAST_PHYSICS,
@@ -35,6 +36,8 @@ from morphbench.sensing import IdealSensor
 from morphbench.shapes import load_shape, rotate, shape_from_table
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "fidelity.md"
+KEPT_FROM = "## The dynamic backend"
+"""the page's sections from this heading on are another script's (benchmarks/dynamic_fidelity.py): kept as they are."""
 CURVE_POINTS = 20  # dphi_2 = 0, 0.05, ..., 0.95
 MAP_RESOLUTION = 10
 CYCLES, DISCARD = 8, 2  # per scan point: cycles measured after cycles dropped
@@ -378,8 +381,15 @@ def main() -> None:
         lines.append(f"| {temperature}{mark} | {np.mean([t.acceptance.iloc[150:].mean() for t in tables]):.2f} | "
                      f"{np.mean([t.ubar_true.iloc[150:].mean() for t in tables]):+.2f} |")
     lines += ["", f"Benchmark wall time: {time.perf_counter() - started:.0f} s.", ""]
-    Path(args.out).write_text("\n".join(lines), encoding="utf-8")
+    write_page(Path(args.out), lines)
     print("\n".join(lines))
+
+
+def write_page(out: Path, lines: list[str]) -> Path:
+    """``out`` rewritten with ``lines``, its sections from KEPT_FROM on kept as they are (another script's)."""
+    kept = out.read_text(encoding="utf-8") if out.is_file() else ""
+    kept = kept[kept.index(KEPT_FROM):] if KEPT_FROM in kept else ""
+    return write_text(out, "\n".join(lines) + ("\n" + kept if kept else ""))
 
 
 if __name__ == "__main__":
