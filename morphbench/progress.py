@@ -17,28 +17,36 @@ ANNOUNCE_AFTER_S = 1.0
 def announced(text: str, quiet: bool = False):
     """Run the block; once it has run ANNOUNCE_AFTER_S, ``text`` on stderr with the seconds it has taken, redrawn
     every second until it ends: work that counts no steps (reading, generating and checking a large shape, building
-    its world, drawing it) shows from its first second that it is under way. Nothing with ``quiet``."""
+    its world, drawing it) shows from its first second that it is under way. Its line stays when the work ends, and is
+    erased when the work fails: the one-line error that follows is then the only line the terminal shows. Nothing
+    with ``quiet``."""
     if quiet:
         yield
         return
-    started, done = time.monotonic(), threading.Event()
+    started, done, failed = time.monotonic(), threading.Event(), []
 
-    def show(end: str = "") -> None:
-        sys.stderr.write(f"\r{text}... {time.monotonic() - started:.0f} s{end}")
+    def show(end: str = "") -> str:
+        line = f"{text}... {time.monotonic() - started:.0f} s"
+        sys.stderr.write(f"\r{line}{end}")
         sys.stderr.flush()
+        return line
 
     def clock() -> None:
         if done.wait(ANNOUNCE_AFTER_S):
             return
-        show()
+        line = show()
         while not done.wait(1.0):
-            show()
-        show("\n")
+            line = show()
+        sys.stderr.write(f"\r{' ' * len(line)}\r" if failed else "\n")
+        sys.stderr.flush()
 
     thread = threading.Thread(target=clock, daemon=True, name="morphbench-announce")
     thread.start()
     try:
         yield
+    except BaseException:
+        failed.append(True)
+        raise
     finally:
         done.set()
         thread.join()

@@ -79,6 +79,12 @@ def assert_config_error(path: Path, key: str, expected: str) -> ConfigError:
     return error
 
 
+def shown_lines(text: str) -> list[str]:
+    """The lines a terminal shows of ``text`` (stderr): of each, what follows its last carriage return, if not blank
+    (a progress line that long work redraws, erased before a refusal's one-line error, is none)."""
+    return [line.rsplit("\r", 1)[-1] for line in text.split("\n") if line.rsplit("\r", 1)[-1].strip()]
+
+
 def run_cli(capsys, *argv: str) -> tuple[int, str, str]:
     """main(argv) in-process: (exit code, stdout, stderr); argparse's SystemExit becomes its code."""
     try:

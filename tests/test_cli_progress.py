@@ -11,7 +11,7 @@ import pytest
 
 from morphbench import progress
 
-from conftest import SHAPES_DIR, run_cli
+from conftest import SHAPES_DIR, run_cli, shown_lines
 
 PATIENCE_S = 60.0
 
@@ -43,7 +43,7 @@ def test_work_done_before_the_delay_and_quiet_work_say_nothing(capsys, monkeypat
     assert capsys.readouterr().err == ""
 
 
-def test_an_error_in_announced_work_ends_its_line_before_the_error_is_printed(capsys, monkeypatch):
+def test_an_error_in_announced_work_erases_its_line_before_the_error_is_printed(capsys, monkeypatch):
     monkeypatch.setattr(progress, "ANNOUNCE_AFTER_S", 0.0)
     with pytest.raises(ValueError):
         with progress.announced("drawing"):
@@ -51,7 +51,8 @@ def test_an_error_in_announced_work_ends_its_line_before_the_error_is_printed(ca
             while "drawing" not in capsys.readouterr().err and time.monotonic() < deadline:
                 time.sleep(0.01)
             raise ValueError("bad")
-    assert capsys.readouterr().err.endswith("\n")  # the CLI's one-line error starts on a line of its own
+    err = capsys.readouterr().err  # the CLI's one-line error is then the only line a terminal shows
+    assert err.endswith("\r") and shown_lines(err) == []
 
 
 class _Bar:

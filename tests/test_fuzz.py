@@ -18,7 +18,7 @@ from hypothesis import HealthCheck, given, settings
 import fuzz_physics
 import fuzzing
 import pandas as pd
-from conftest import ROOT, SHAPES_DIR
+from conftest import ROOT, SHAPES_DIR, shown_lines
 
 FAST = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 SUITE = settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])  # a pool per suite
@@ -36,7 +36,7 @@ def check(case: fuzzing.Case) -> fuzzing.Outcome:
         assert outcome.verdict == "accepted", detail  # the run directory, scan or results are complete
     else:
         assert outcome.status == 2, detail
-        lines = [line for line in outcome.err.splitlines() if line.strip()]
+        lines = shown_lines(outcome.err)
         assert len(lines) == 1, detail
         assert fuzzing.is_error_line(lines[0]), detail
         assert outcome.written == [], detail  # no run or results directory, nothing in the working directory

@@ -20,7 +20,7 @@ from morphbench.experiment import RunConfig, run
 from morphbench.physics import memory_estimate
 from morphbench.shapes import shape_from_table
 
-from conftest import PARAMETER_CLASSES, ROOT, SHAPES_DIR, chain, run_cli
+from conftest import PARAMETER_CLASSES, ROOT, SHAPES_DIR, chain, run_cli, shown_lines
 
 CHAIN2 = str(SHAPES_DIR / "chain-2.toml")
 
@@ -54,7 +54,7 @@ def _run_file(tmp_path: Path, body: str, steps: int = 1) -> Path:
 def _one_line_error(capsys, *argv: str) -> str:
     code, out, err = run_cli(capsys, *argv)
     assert code == EXIT_BAD_INPUT, err
-    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert "Traceback" not in err and len(shown_lines(err)) == 1, err
     return err.strip()
 
 

@@ -19,7 +19,7 @@ from morphbench.cli import EXIT_BAD_INPUT, EXIT_INTERRUPTED
 from morphbench.errors import ConfigError
 from morphbench.files import replace_directory, replace_section
 
-from conftest import ROOT, SHAPES_DIR, run_cli
+from conftest import ROOT, SHAPES_DIR, run_cli, shown_lines
 
 PATIENCE_S = 120.0
 """How long a test waits for a command before it gives up (a hang, not a measurement: a cold checkout compiles its
@@ -102,7 +102,7 @@ def test_overwrite_keeps_files_that_are_not_a_runs(tmp_path: Path, capsys):
     (out / "notes.txt").write_text("mine")
     code, stdout, err = run_cli(capsys, "run", CHAIN2, "--steps", "1", "--quiet", "--out", str(out), "--overwrite")
     assert code == EXIT_BAD_INPUT and stdout == ""
-    assert "it also holds notes.txt" in err and len(err.splitlines()) == 1
+    assert "it also holds notes.txt" in err and len(shown_lines(err)) == 1
     assert (out / "notes.txt").read_text() == "mine"
 
 
