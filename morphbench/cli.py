@@ -17,7 +17,7 @@ from pathlib import Path
 from morphbench import __version__
 from morphbench.bench.cli import add_bench_commands
 from morphbench.errors import ConfigError, PhysicsError
-from morphbench.files import atomic_write, check_path
+from morphbench.files import atomic_write, check_path, try_replace_directory
 from morphbench.params import (
     COUNT,
     DEFAULT_SEED,
@@ -179,39 +179,12 @@ def _run_dir(out: str, overwrite: bool) -> Path:
         ancestor = ancestor.parent
     if not ancestor.is_dir() or not os.access(ancestor, os.W_OK | os.X_OK):
         raise ConfigError("--out", out, f"a directory that can be written ({ancestor} is not a writable directory)")
-    _try_writing(path, out)
-    return path
-
-
-def _try_writing(path: Path, out: str) -> None:
-    """Make what ``RunRecords.write`` makes (the missing parents of ``path``, the temporary directory beside it that
-    becomes the run directory, a file in it) and remove it all again: the access bits say yes where the file system
-    says no (root in /proc, a read-only mount), and a run found unwritable only after it was simulated is lost."""
-    target = Path(os.path.abspath(path))
-    made: list[Path] = []
     try:
-        for parent in reversed(target.parents):
-            if not parent.exists():
-                parent.mkdir()
-                made.append(parent)
-        # the writer's own name (files.is_stale); one left by a killed process of this id is the writer's to clear
-        probe = target.with_name(f".{target.name}.tmp-{os.getpid()}")
-        probe.mkdir(exist_ok=True)
-        made.append(probe)
-        (probe / "summary.json").write_bytes(b"{}")
-        made.append(probe / "summary.json")
+        try_replace_directory(path)  # what RunRecords.write makes first
     except OSError as exc:
         where = f": {exc.filename}" if exc.filename else ""
         raise ConfigError("--out", out, f"a directory that can be written ({exc.strerror or exc}{where})") from None
-    finally:
-        for made_path in reversed(made):  # the file, the temporary, then the parents, deepest first
-            try:
-                if made_path.is_dir():
-                    made_path.rmdir()
-                else:
-                    made_path.unlink()
-            except OSError:
-                pass
+    return path
 
 
 def _output_dir(out: str, marker: str, overwrite: bool) -> Path:

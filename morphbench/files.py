@@ -79,6 +79,39 @@ def write_bytes(path: str | os.PathLike, data: bytes) -> Path:
     return atomic_write(path, lambda tmp: tmp.write_bytes(data))
 
 
+def _temporary_directory(path: Path) -> Path:
+    """The hidden directory beside ``path`` that ``replace_directory`` writes into (``is_stale`` knows its name)."""
+    return path.with_name(f".{path.name}.tmp-{os.getpid()}")
+
+
+def try_replace_directory(path: str | os.PathLike) -> None:
+    """Make what ``replace_directory(path, ...)`` makes first (the missing parents of ``path``, its temporary
+    directory, a file in it) and remove it all again; the OSError the file system gives if it cannot. The access
+    bits say yes where the file system says no (root in /proc, a read-only mount): work found unwritable only after
+    it is done is lost."""
+    target = Path(os.path.abspath(path))
+    made: list[Path] = []
+    try:
+        for parent in reversed(target.parents):
+            if not parent.exists():
+                parent.mkdir()
+                made.append(parent)
+        probe = _temporary_directory(target)  # one left by a killed process of this id is the writer's to clear
+        probe.mkdir(exist_ok=True)
+        made.append(probe)
+        (probe / "summary.json").write_bytes(b"{}")
+        made.append(probe / "summary.json")
+    finally:
+        for made_path in reversed(made):  # the file, the temporary, then the parents, deepest first
+            try:
+                if made_path.is_dir():
+                    made_path.rmdir()
+                else:
+                    made_path.unlink()
+            except OSError:
+                pass
+
+
 def replace_directory(path: str | os.PathLike, write: Callable[[Path], object]) -> Path:
     """Call ``write(tmp)`` on a new directory beside ``path``, then swap it in for ``path`` whole and remove the old
     one: whatever happens, ``path`` holds the old directory (or nothing, if there was none) or the new one complete,
@@ -88,7 +121,7 @@ def replace_directory(path: str | os.PathLike, write: Callable[[Path], object]) 
     ``.NAME.old-PID``)."""
     given, path = Path(path), Path(os.path.abspath(path))
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp = _temporary_directory(path)
     shutil.rmtree(tmp, ignore_errors=True)  # a killed earlier process of the same id
     tmp.mkdir()
     try:
