@@ -319,3 +319,23 @@ def test_a_cached_video_that_does_not_decode_is_damage_and_goes_aside(finished, 
     assert [p.read_bytes() for p in (root / "damaged").glob("*/videos/pair.mp4")] == [damage]
     code, out, _ = run_cli(capsys, "check", str(root))
     assert code == 0, out
+
+
+def test_every_summary_the_records_write_keeps_the_schema_check_holds_it_to():
+    """store.SUMMARY_SCHEMA is the twin of records.summary: every key a run writes, with a cut (its pieces' final
+    values), events and a centralized learner among them, passes the check (a key added to one and not the other
+    would call every new run damaged)."""
+    from morphbench.bench.store import SUMMARY_SCHEMA, _check_summary
+    from morphbench.experiment import RunConfig, parse_events, run
+    from morphbench.shapes import load_shape
+
+    from conftest import SHAPES_DIR
+
+    shape = load_shape(SHAPES_DIR / "chain-3.toml")
+    cut = RunConfig(shape=shape, steps=3, events=parse_events([{"step": 2, "kind": "cut", "link": 2}], "t", 3, 3))
+    keys = set()
+    for config in (cut, RunConfig(shape=shape, steps=2, learner="cmaes")):
+        summary = json.loads(json.dumps(run(config).summary(), default=str))  # as result.json stores it
+        _check_summary(summary, Path("result.json"))
+        keys |= set(summary)
+    assert {"final_ubar_by_piece", "events", "centralized"} <= keys <= set(SUMMARY_SCHEMA)
