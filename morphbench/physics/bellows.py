@@ -129,17 +129,6 @@ class Bellows:
         extends[extends] = ~self._blocked[self.link_units[extends]]
         return extends.astype(float)
 
-    def _friction_limits(self, start: float, n_ticks: int, pumps: bool) -> np.ndarray:
-        """(n_ticks, n_bodies) N, each body's friction limit on a uniform ground over the coming ticks: its friction
-        times its scale and weight, a pumping unit's times the vibration (the field is read by the solvers at the
-        bodies' places)."""
-        friction = self._base_friction * self._friction_scale
-        if pumps and self.environment.vibration != 1.0:
-            friction = np.repeat(friction[None], n_ticks, axis=0)
-            friction[:, self._unit_bodies] *= np.where(self._pumping(start, n_ticks), self.environment.vibration, 1.0)
-            return friction * self._weights
-        return np.broadcast_to(friction * self._weights, (n_ticks, len(friction)))
-
     def _pumping(self, start: float, n_ticks: int) -> np.ndarray:
         """(n_ticks, n_units) whether each unit's pump runs at the start of each coming tick (a dead one never)."""
         t = start + self.tick * np.arange(n_ticks)
@@ -299,6 +288,17 @@ class QuasiStatic(Bellows):
         states = self.new_states(len(sampled) + 1)
         self._advance(n_ticks, None, True, every, record, states)
         return self.poses_of(states, self.shape.units)
+
+    def _friction_limits(self, start: float, n_ticks: int, pumps: bool) -> np.ndarray:
+        """(n_ticks, n_bodies) N, each body's friction limit on a uniform ground over the coming ticks: its friction
+        times its scale and weight, a pumping unit's times the vibration (the field is read by the solvers at the
+        bodies' places)."""
+        friction = self._base_friction * self._friction_scale
+        if pumps and self.environment.vibration != 1.0:
+            friction = np.repeat(friction[None], n_ticks, axis=0)
+            friction[:, self._unit_bodies] *= np.where(self._pumping(start, n_ticks), self.environment.vibration, 1.0)
+            return friction * self._weights
+        return np.broadcast_to(friction * self._weights, (n_ticks, len(friction)))
 
     def _advance(self, n_ticks: int, on_tick, pumps: bool, every: int, record=None, states=None) -> None:
         """``advance`` of a quasi-static world: pressures, rest lengths and friction limits for the coming ticks,

@@ -123,7 +123,7 @@ class DynamicWorld(Bellows):
         pressure_trajectory(self.pressure, phases, start, self.tick, 0, actuator, periods)  # its checks alone
         gate = self._actuated.astype(float) if pumps else np.zeros(len(self.link_units))
         lengths = self._rest_lengths(self.pressure[None])[0]  # the rest lengths now, where the first tick starts
-        friction = self._base_friction * self._friction_scale  # as ``_friction_limits``, tick by tick
+        friction = self._base_friction * self._friction_scale  # as ``QuasiStatic._friction_limits``, tick by tick
         vibration = self.environment.vibration if pumps else 1.0
         modes, constants = NO_FIELD if self._field is None else self._field_modes
         field_every = 0 if self._field is None else max(1, round(FIELD_UPDATE_PERIOD / self.tick))
@@ -243,10 +243,11 @@ def _integrate(q, v, pressure, lengths, first, last, t0, tick, phases, periods, 
     same numbers in the same order, found tick by tick instead of for every tick of the advance at once: nothing
     here grows with the number of ticks. ``pressure`` and ``lengths`` (each link's rest length) are where the first
     tick starts on entry and where the last ends on return; the rest lengths are interpolated linearly inside a tick.
-    Each body's friction limit on a uniform ground is that of ``_friction_limits``: its ``friction`` (its scale's)
-    times its weight, a unit's times ``vibration`` at the ticks its pump starts running (``_pumping``: by its unit's
-    phase and period, unless ``dead``; 1.0 is none), scaled by the friction field (``friction.factors``) at the
-    bodies' places, read into ``factor`` (kept between calls) when the tick's index is a multiple of field_every > 0."""
+    Each body's friction limit on a uniform ground is that of ``QuasiStatic._friction_limits``: its ``friction``
+    (its scale's) times its weight, a unit's times ``vibration`` at the ticks its pump starts running (``_pumping``:
+    by its unit's phase and period, unless ``dead``; 1.0 is none), scaled by the friction field (``friction.factors``)
+    at the bodies' places, read into ``factor`` (kept between calls) when the tick's index is a multiple of
+    field_every > 0."""
     n, n_links = q.shape[0], len(front)
     force = np.zeros((n, 3))
     jac, strain = np.empty((3, 6)), np.empty(3)
