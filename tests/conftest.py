@@ -50,6 +50,14 @@ def pytest_collection_modifyitems(items):
             item.add_marker(pytest.mark.quick)
 
 
+def sheet(rows: int, columns: int | None = None) -> Shape:
+    """A sheet of ``rows`` x ``columns`` (default: square) units, no dummies, bellows along x and y (as
+    shapes/sheet-10x10.toml)."""
+    columns = rows if columns is None else columns
+    return shape_from_table({"assembly": {"generator": "grid", "rows": rows, "columns": columns, "dummy": False,
+                                          "actuated_axes": ["x", "y"]}}, source=f"sheet {rows} x {columns}")
+
+
 def chain(units: int, **sections) -> Shape:
     """A chain of ``units`` active units and a dummy; ``sections``: more tables of a morphology file (unit,
     actuator)."""

@@ -36,18 +36,12 @@ from morphbench.sensing import ideal
 from morphbench.shapes import load_shape, shape_from_table
 from morphbench.streams import NOISE_STREAM
 
-from conftest import SHAPES_DIR, run_cli, write_suite
+from conftest import SHAPES_DIR, run_cli, sheet, write_suite
 
 RUN_LOOP = sys.modules[_Validity.__module__]
 """morphbench.experiment.run (the package's ``run`` is the function)."""
 DYNAMIC = PHYSICS_PRESETS["dynamic"]
 IDEAL = SensorParams(kind="ideal")
-
-
-def sheet(side: int):
-    """A side x side sheet without dummies, bellows along x and y (benchmarks/cost_per_unit.py's)."""
-    return shape_from_table({"assembly": {"generator": "grid", "rows": side, "columns": side, "dummy": False,
-                                          "actuated_axes": ["x", "y"]}}, source=f"sheet-{side}x{side}")
 
 
 # --- the preset ---------------------------------------------------------------------------------------------------

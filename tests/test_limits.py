@@ -18,9 +18,8 @@ from morphbench.cli import EXIT_BAD_INPUT
 from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig, run
 from morphbench.physics import memory_estimate
-from morphbench.shapes import shape_from_table
 
-from conftest import PARAMETER_CLASSES, ROOT, SHAPES_DIR, chain, run_cli, shown_lines
+from conftest import PARAMETER_CLASSES, ROOT, SHAPES_DIR, chain, run_cli, sheet, shown_lines
 
 CHAIN2 = str(SHAPES_DIR / "chain-2.toml")
 
@@ -205,11 +204,6 @@ def test_an_event_after_the_last_step_is_refused_in_a_run_file_and_after_steps(t
     error = _one_line_error(capsys, "run", str(path), "--quiet", "--out", str(out))
     assert f"{path}: events[0].step: expected a learning step <= the run's steps (40)" in error
     assert not out.exists()
-
-
-def sheet(rows: int, columns: int):
-    return shape_from_table({"assembly": {"generator": "grid", "rows": rows, "columns": columns, "dummy": False,
-                                          "actuated_axes": ["x", "y"]}}, source=f"sheet {rows} x {columns}")
 
 
 def test_the_memory_estimate_grows_with_the_shape():

@@ -8,9 +8,9 @@ import pytest
 from morphbench.params import DEFAULT_PHYSICS, QUASISTATIC_PHYSICS
 from morphbench.errors import ConfigError
 from morphbench.physics import PlanarWorld, check_one_layer, cholesky, planar
-from morphbench.shapes import load_shape, rotate, shape_from_table
+from morphbench.shapes import load_shape, rotate
 
-from conftest import SHAPES_DIR
+from conftest import SHAPES_DIR, sheet
 from test_planar import mirrored
 
 AGREE = 1e-9
@@ -20,11 +20,6 @@ TIE = 1e-7
 """m, the same for a shape with a piece whose bodies' frictions tie (chains cut into a piece of 2 or 3 bodies): the
 energy is flat along that piece's common slide, so answers meeting the same force tolerance part by more (2e-8 m
 over 480 ticks; the other library shapes within 1e-9)."""
-
-
-def sheet(rows: int, columns: int):
-    return shape_from_table({"assembly": {"generator": "grid", "rows": rows, "columns": columns, "dummy": False,
-                                          "actuated_axes": ["x", "y"]}}, source=f"sheet {rows} x {columns}")
 
 
 def block_system(points, front, rear, seed):
