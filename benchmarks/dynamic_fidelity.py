@@ -42,10 +42,11 @@ from pathlib import Path
 
 import numpy as np
 
+from cost_per_unit import shape_of
 from fidelity import CURVE_POINTS, CYCLES, DISCARD, curve, fmt, rms
 from morphbench.params import DEFAULT_PHYSICS, FAST_PHYSICS, QUASISTATIC_PHYSICS, PhysicsParams
 from morphbench.physics import make_world
-from morphbench.shapes import load_shape, shape_from_table
+from morphbench.shapes import load_shape
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "fidelity.md"
@@ -79,12 +80,6 @@ def slowed(shape, factor: float):
     a = shape.actuator
     return dataclasses.replace(shape, actuator=dataclasses.replace(
         a, cycle_time=a.cycle_time * factor, tau_inflate=a.tau_inflate * factor, tau_vent=a.tau_vent * factor))
-
-
-def sheet(side: int):
-    """A side x side sheet of units with bellows along both axes, no dummies (as shapes/sheet-10x10.toml)."""
-    return shape_from_table({"assembly": {"generator": "grid", "rows": side, "columns": side, "dummy": False,
-                                          "actuated_axes": ["x", "y"]}}, source=f"sheet-{side}x{side}")
 
 
 def sheet_cost(shape, physics: PhysicsParams, seconds: float, friction: float = 1.0, seed: int = 0
@@ -408,7 +403,7 @@ def main(argv: list[str] | None = None) -> int:
             replace_section(args.doc, BEGIN, END, "\n".join(["", *head, *lines, "", *table, ""]) + "\n")
             print(f"\nwrote {args.doc}")
     else:
-        big = sheet(args.side)
+        big = shape_of("sheet", args.side, args.side)
         print(f"\nsheet-{args.side}x{args.side} ({len(big.bodies)} bodies, {len(big.links)} links), random phases, "
               f"{args.seconds:g} simulated s:")
         print("| step | friction scale | CPU s per simulated s | finite | fastest body (m/s) |\n|---|---|---|---|---|")
@@ -418,7 +413,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"| 1/{1 / (step * factor):.0f} s | {friction:g} | {cost:.4f} | {finite} | {fastest:.3g} |")
         # the step's stability bound, the lattice's fastest mode (205 rad/s at the defaults), shown without friction,
         # which would hold the bodies that it stops
-        small = sheet(10)
+        small = shape_of("sheet", 10, 10)
         print("\nsheet-10x10 without friction, one step per tick:\n| step | finite | fastest body (m/s) |\n"
               "|---|---|---|")
         for hz in (120, 180, 240):
