@@ -218,10 +218,11 @@ class PhysicsParams:
     """'pybullet': rigid bodies on a ground plane (morphbench.physics.world), any shape; 'quasistatic': springs and
     Coulomb friction without inertia, exact and fast, for any assembly in one layer on the ground (solved along the
     axis for a chain, morphbench.physics.quasistatic, and in the plane otherwise, morphbench.physics.planar);
-    'auto': quasistatic where it applies, pybullet for stacks (and for the camera sensor, which renders a PyBullet
-    scene). The quasi-static model is the limit the PyBullet world converges to (docs/fidelity.md). 'dynamic': the
+    'auto': quasistatic where it applies (dynamic for one-layer shapes other than chains of more than
+    ``physics.AUTO_DYNAMIC_UNITS`` units, where the exact planar solver grows as N^1.6), pybullet for stacks (and for
+    the camera sensor, which renders a PyBullet scene). The quasi-static model is the limit the PyBullet world converges to (docs/fidelity.md). 'dynamic': the
     same springs with inertia, planar rigid bodies with stick-slip Coulomb friction integrated at ``dynamic_step``
-    (morphbench.physics.dynamic), for any assembly in one layer on the ground, at any friction; only when named."""
+    (morphbench.physics.dynamic), for any assembly in one layer on the ground, at any friction."""
     timestep: float = param(1 / 120, between(1e-4, 0.1), "s")
     """s, physics step (quasistatic: the interval between solves; the solution depends on time only through the
     pressures)."""
@@ -263,7 +264,8 @@ QUASISTATIC_PHYSICS = PhysicsParams(backend="quasistatic", timestep=1 / 200)
 DYNAMIC_PHYSICS = PhysicsParams(backend="dynamic")
 """The same springs with inertia and stick-slip friction (morphbench.physics.dynamic): every body a planar rigid
 body, integrated in steps of ``dynamic_step`` (two per 1/120 s tick), linear in the assembly's size; for one layer
-on the ground at any friction. Only when named: 'auto' never picks it."""
+on the ground at any friction. 'auto' picks it for one-layer shapes other than chains of more than
+``physics.AUTO_DYNAMIC_UNITS`` units."""
 
 PHYSICS_PRESETS = {"default": DEFAULT_PHYSICS, "fast": FAST_PHYSICS, "reference": REFERENCE_PHYSICS,
                    "quasistatic": QUASISTATIC_PHYSICS, "dynamic": DYNAMIC_PHYSICS}

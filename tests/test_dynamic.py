@@ -20,11 +20,11 @@ from morphbench.params import (
     PhysicsParams,
     SensorParams,
 )
-from morphbench.physics import can_batch, make_world, resolve_backend
+from morphbench.physics import AUTO_DYNAMIC_UNITS, can_batch, make_world, resolve_backend
 from morphbench.physics.dynamic import DynamicWorld, _stick_slip
 from morphbench.shapes import load_shape, rotate, shape_from_table
 
-from conftest import SHAPES_DIR, chain
+from conftest import SHAPES_DIR, chain, sheet
 from test_planar import trajectory as world_trajectory
 
 DYNAMIC = dataclasses.replace(DEFAULT_PHYSICS, backend="dynamic")
@@ -286,12 +286,18 @@ def test_the_friction_field_and_vibration_change_the_motion_and_callbacks_do_not
 # --- the backend among the others --------------------------------------------------------------------------------
 
 
-def test_the_backend_is_taken_only_when_named_and_refuses_stacks():
+def test_auto_takes_the_backend_for_sheets_beyond_the_library_and_a_name_anywhere_but_stacks():
     chain2, grid2 = load_shape(SHAPES_DIR / "chain-2.toml"), load_shape(SHAPES_DIR / "grid-2x2.toml")
-    stack = load_shape(SHAPES_DIR / "stack-2x2x2.toml")
+    stack, library_largest = load_shape(SHAPES_DIR / "stack-2x2x2.toml"), load_shape(SHAPES_DIR / "sheet-10x10.toml")
     assert resolve_backend(chain2, DYNAMIC) == resolve_backend(grid2, DYNAMIC) == "dynamic"
-    assert resolve_backend(chain2, DEFAULT_PHYSICS) == "quasistatic"  # 'auto' is what it was
-    assert resolve_backend(grid2, DEFAULT_PHYSICS) == "planar"
+    assert resolve_backend(chain2, DEFAULT_PHYSICS) == "quasistatic"  # 'auto' is what it was up to 100 units
+    assert resolve_backend(grid2, DEFAULT_PHYSICS) == resolve_backend(library_largest, DEFAULT_PHYSICS) == "planar"
+    assert library_largest.n_units == AUTO_DYNAMIC_UNITS
+    assert resolve_backend(sheet(10, 11), DEFAULT_PHYSICS) == "dynamic"  # beyond: the linear model
+    assert resolve_backend(chain(AUTO_DYNAMIC_UNITS + 1), DEFAULT_PHYSICS) == "quasistatic"  # a chain keeps its own
+    quasistatic = PhysicsParams(backend="quasistatic")
+    assert resolve_backend(sheet(10, 11), quasistatic) == "planar"  # named, the exact solver at any size
+    assert resolve_backend(sheet(10, 11), DEFAULT_PHYSICS, scene=True) == "pybullet"
     assert resolve_backend(stack, DEFAULT_PHYSICS) == "pybullet"
     with pytest.raises(ConfigError, match="dynamic"):
         resolve_backend(stack, DYNAMIC)

@@ -4,8 +4,8 @@ Four worlds behind one declared interface (``protocol.WorldInterface``: set phas
 damage, cuts, friction; ``backend`` and ``scene``): the PyBullet ``World`` for any shape; the quasi-static model
 (springs and Coulomb friction without inertia), solved exactly along a line by ``QuasiStaticWorld`` for chains and
 by ``PlanarWorld`` for any assembly in one layer on the ground; the same springs with inertia and sticking friction,
-``DynamicWorld``, integrated in steps linear in the assembly's size (only when named); and the copies of a batch
-(``batch.Copy``).
+``DynamicWorld``, integrated in steps linear in the assembly's size ('auto' picks it for sheets beyond
+``AUTO_DYNAMIC_UNITS`` units); and the copies of a batch (``batch.Copy``).
 ``make_world`` builds the one ``resolve_backend`` picks for a configuration, alone or as a ``Batch`` of copies.
 """
 
@@ -60,8 +60,9 @@ from morphbench.physics.protocol import Batch, Scene, Single, WorldInterface  # 
 def resolve_backend(shape, physics: PhysicsParams, environment: EnvironmentParams = EnvironmentParams(),
                     scene: bool = False) -> str:
     """The backend ``make_world`` builds for this configuration, decided without building it ('auto': the
-    quasi-static model for any shape in one layer on the ground, along its axis for a chain, unless ``scene`` asks
-    for a PyBullet scene to render, as the camera sensor does; PyBullet for stacks). A quasi-static model outside its
+    quasi-static model for any shape in one layer on the ground, along its axis for a chain, the dynamic model for a
+    one-layer shape that is not a chain and has more than ``AUTO_DYNAMIC_UNITS`` units, unless ``scene`` asks for a
+    PyBullet scene to render, as the camera sensor does; PyBullet for stacks). A quasi-static model outside its
     range (``check_quasistatic_friction``) is a ConfigError, also when 'auto' picks it: a run is never switched to
     another model behind its back."""
     return _resolve(shape, physics, environment, scene)[0]
@@ -72,6 +73,15 @@ STACK_SUBSTEPS = 2
 them (benchmarks/library_seeds.py: at 1, stack-2x2x2-lift left the model's validity in 2 of 100 seeds, its Ubar far
 from the reference setting's; at 2 it agrees with the reference)."""
 
+AUTO_DYNAMIC_UNITS = 100
+"""units beyond which 'auto' runs a one-layer shape that is not a chain on the dynamic model instead of the exact
+planar solver. Measured through the run loop (benchmarks/RESULTS.md, "Which model 'auto' picks"): the dynamic model
+is the cheaper at every size (4-30x from 4 to 256 units), but the planar solver is exact, the limit the others are
+checked against, and affordable up to the library's largest shape (sheet-10x10: 100 units, under a minute for 300
+steps); beyond, its cost grows as N^1.6 (a 300-step run of 256 units takes minutes, of 1,024 units half an hour)
+while the dynamic model's grows as N and agrees with it in every library shape's learning outcome
+(docs/fidelity.md, "The dynamic backend")."""
+
 
 def _resolve(shape, physics: PhysicsParams, environment: EnvironmentParams, scene: bool
              ) -> tuple[str, PhysicsParams]:
@@ -81,7 +91,7 @@ def _resolve(shape, physics: PhysicsParams, environment: EnvironmentParams, scen
         raise ConfigError("physics", "backend", f"one of {', '.join(PHYSICS_BACKENDS)}", physics.backend)
     if physics.backend == "pybullet":
         return World.backend, physics
-    if physics.backend == DynamicWorld.backend:  # only when named: any one-layer shape, at any friction
+    if physics.backend == DynamicWorld.backend:  # named: any one-layer shape, at any friction
         check_dynamic(shape)
         return DynamicWorld.backend, physics
     try:
@@ -92,6 +102,8 @@ def _resolve(shape, physics: PhysicsParams, environment: EnvironmentParams, scen
         return World.backend, replace(physics, substeps=max(physics.substeps, STACK_SUBSTEPS))  # auto: a stack
     if physics.backend == "auto" and scene:
         return World.backend, physics
+    if physics.backend == "auto" and backend == PlanarWorld.backend and shape.n_units > AUTO_DYNAMIC_UNITS:
+        return DynamicWorld.backend, physics
     check_quasistatic_friction(shape, environment, shape.source)
     return backend, physics
 
@@ -180,6 +192,6 @@ def make_world(shape, physics: PhysicsParams, environment: EnvironmentParams = E
     return BATCHING[backend](shape, physics, environment, copies)
 
 
-__all__ = ["BACKENDS", "Batch", "PlanarWorld", "QuasiStaticWorld", "Scene", "World", "WorldInterface",
+__all__ = ["AUTO_DYNAMIC_UNITS", "BACKENDS", "Batch", "PlanarWorld", "QuasiStaticWorld", "Scene", "World", "WorldInterface",
            "available_memory", "can_batch", "check_memory", "make_world", "memory_estimate", "pressure_trajectory",
            "pump_on", "quasistatic_world", "resolve_backend"]

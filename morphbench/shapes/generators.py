@@ -35,9 +35,11 @@ from morphbench.params import ActuatorParams, DummyParams, UnitParams
 from morphbench.shapes.model import Body, Link
 
 MAX_UNITS = 100_000
-"""Most active units in one assembly (whatever the generator): the planar solver's work per tick grows as N^1.5
-(benchmarks/RESULTS.md), so a larger sheet would take over an hour per simulated second on one core."""
-TOO_MANY = "a larger assembly takes over an hour per simulated second"
+"""Most active units in one assembly (whatever the generator): the dynamic model, the cheapest, costs 3.9 CPU s per
+simulated second at 316 x 316 units (benchmarks/RESULTS.md), so a 300-step run of a larger sheet would take over 80
+minutes on one core (and the exact planar solver, whose work per tick grows as N^1.6, over an hour per simulated
+second)."""
+TOO_MANY = "a larger assembly takes over 4 CPU s per simulated second, a 300-step run over 80 minutes"
 """why MAX_UNITS, in the messages that refuse more."""
 MAX_BODIES = 2 * MAX_UNITS
 """Most bodies (active units and dummies) in one assembly."""
