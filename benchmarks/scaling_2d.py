@@ -3,6 +3,7 @@ square sheets beside chains, written into docs/morphologies.md (between its gene
 (docs/media/scaling-2d.png).
 
     morphbench bench benchmarks/scaling-2d.toml --out results/scaling-2d --workers 2     # the runs and their report
+    python benchmarks/waves.py --workers 2                                                 # benchmarks/waves.csv
     python benchmarks/scaling_2d.py results/scaling-2d                                     # the table, from its tables
 
 The figures come from the results directory's metrics.parquet (``bench.metrics.condition_metrics``, the report's):
@@ -11,7 +12,9 @@ standard error the spread of the runs' final Ubar over the square root of the ru
 the runs that reach it (- where the fit found no U_eq to reach). Whether a condition learned is read from its runs
 (runs.parquet, steps.parquet): each run's gain, its final true Ubar less its first learning step's (START_STEP),
 against the gains' standard error. The fit's own start U_0 is no yardstick for that: on a noisy curve that does not
-rise, an exponential fit may start it anywhere.
+rise, an exponential fit may start it anywhere. Each condition's U_eq is set against its assembly's best travelling
+wave (benchmarks/waves.csv, written by benchmarks/waves.py on the same physics), the best gait known for it, and its
+physics is the backend its runs recorded.
 """
 
 from __future__ import annotations
@@ -27,6 +30,9 @@ import pandas as pd
 from morphbench.bench import figures as F
 from morphbench.errors import ConfigError
 from morphbench.files import replace_section
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from waves import CSV as WAVES  # noqa: E402  (a sibling script: the best waves' file)
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "morphologies.md"
@@ -54,20 +60,33 @@ def _table(results: Path, name: str, columns: list[str] | None = None) -> pd.Dat
 
 
 def gains(results: Path) -> pd.DataFrame:
-    """Per condition: its runs' mean gain (final true Ubar less the true Ubar of START_STEP, mm/cycle) and the gain's
-    standard error (``gain``, ``gain_se``)."""
-    runs = _table(results, "runs.parquet", ["run_id", "condition_id", "status", "final_ubar_true"])
+    """Per condition: its runs' mean gain (final true Ubar less the true Ubar of START_STEP, mm/cycle), the gain's
+    standard error (``gain``, ``gain_se``) and the physics backends its runs recorded (``physics``)."""
+    runs = _table(results, "runs.parquet", ["run_id", "condition_id", "status", "final_ubar_true", "backend"])
     first = _table(results, "steps.parquet", ["run_id", "step", "ubar_true"]).query(f"step == {START_STEP}")
     runs = runs[runs.status == "done"].merge(first[["run_id", "ubar_true"]], on="run_id")
     runs["gain"] = runs.final_ubar_true - runs.ubar_true
-    grouped = runs.groupby("condition_id").gain
-    return pd.DataFrame({"gain": grouped.mean(), "gain_se": grouped.std() / grouped.count() ** 0.5}).reset_index()
+    grouped = runs.groupby("condition_id")
+    return pd.DataFrame({"gain": grouped.gain.mean(), "gain_se": grouped.gain.std() / grouped.gain.count() ** 0.5,
+                         "physics": grouped.backend.agg(lambda b: ", ".join(sorted(set(b.dropna())))),
+                         }).reset_index()
 
 
-def read_metrics(results: Path) -> pd.DataFrame:
-    """The study's condition metrics, with each shape's ``kind`` (chain or sheet) and its runs' ``gains``, in the
-    table's order."""
-    metrics = _table(results, "metrics.parquet").merge(gains(results), on="condition_id", how="left")
+def best_waves(path: Path) -> pd.DataFrame:
+    """Each assembly's best travelling wave, ``shape`` and ``wave`` (mm/cycle), from benchmarks/waves.py's file."""
+    if not path.is_file():
+        raise ConfigError(path, "file", "the best waves written by `python benchmarks/waves.py`")
+    waves = pd.read_csv(path)
+    if not {"shape", "wave"} <= set(waves.columns):
+        raise ConfigError(path, "columns", "shape and wave, as benchmarks/waves.py writes them", list(waves.columns))
+    return waves[["shape", "wave"]]
+
+
+def read_metrics(results: Path, waves: Path = WAVES) -> pd.DataFrame:
+    """The study's condition metrics, with each shape's ``kind`` (chain or sheet), its runs' ``gains`` and physics,
+    and its best wave (``wave``, NaN for a shape waves.py has not measured), in the table's order."""
+    metrics = (_table(results, "metrics.parquet").merge(gains(results), on="condition_id", how="left")
+               .merge(best_waves(waves), on="shape", how="left"))
     metrics = metrics[metrics.learner.isin(LEARNERS)].assign(kind=metrics["shape"].str.split("-").str[0])
     # a condition whose units discard each step's first cycles (its transient) is named for it beside the others
     discarded = metrics.discard_cycles.map(lambda cycles: f" ({cycles} cycles discarded)" if cycles else "")
@@ -77,6 +96,7 @@ def read_metrics(results: Path) -> pd.DataFrame:
     metrics["level"] = metrics.u_eq.where(metrics.plateau.astype(bool), metrics.final_ubar)
     metrics["se"] = metrics.final_ubar_std / metrics.runs.clip(lower=1) ** 0.5
     metrics["learned"] = metrics.gain > LEARNED_SE * metrics.gain_se
+    metrics["of_wave"] = metrics.level / metrics.wave
     return metrics.sort_values(["kind", "n_units", "discard_cycles", "learner"], ascending=[True, True, True, False])
 
 
@@ -92,13 +112,14 @@ def figure(metrics: pd.DataFrame, path: Path) -> Path:
 def table(metrics: pd.DataFrame) -> list[str]:
     """The section's rows: one per shape, number of discarded cycles and learner, chains then sheets, by the number of
     units."""
-    lines = ["| assembly | N | learner | runs | U_eq (mm/cycle) | SE / U_eq | gain over a run (final less step "
-             f"{START_STEP}, +- SE) | learned | steps to 0.8 U_eq | reaching it |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| assembly | N | physics | learner | runs | U_eq (mm/cycle) | SE / U_eq | the best wave (mm/cycle) | "
+             f"U_eq / best wave | gain over a run (final less step {START_STEP}, +- SE) | learned | steps to 0.8 U_eq "
+             "| reaching it |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in metrics.itertuples():
         shown = row.learned and not math.isnan(row.reached_fraction)  # steps to a level below the start say nothing
-        lines.append(f"| {row.assembly} | {row.n_units} | {row.learner} | {row.runs} | {row.level:+.2f}"
+        lines.append(f"| {row.assembly} | {row.n_units} | {row.physics} | {row.learner} | {row.runs} | {row.level:+.2f}"
                      f"{'' if row.plateau else ' (final Ubar: no plateau)'} | {_ratio(row.se, row.level):.0%} | "
+                     f"{_signed(row.wave)} | {_signed(row.of_wave)} | "
                      f"{row.gain:+.2f} +- {row.gain_se:.2f} | {'yes' if row.learned else 'no'} | "
                      f"{_steps(row.steps_to_threshold, row.steps_to_threshold_std) if shown else '-'} | "
                      f"{f'{row.reached_fraction:.0%}' if shown else '-'} |")
@@ -112,10 +133,11 @@ def findings(metrics: pd.DataFrame) -> list[str]:
     for series, rows in metrics.groupby("series", sort=False):
         first, last = rows.iloc[0], rows.iloc[-1]
         if len(rows) == 1:
-            lines.append(f"- {series}: U_eq {first.level:+.2f} mm/cycle at N = {first.n_units}.")
+            lines.append(f"- {series}: U_eq {first.level:+.2f} mm/cycle at N = {first.n_units}"
+                         f"{_of_wave(first)}.")
             continue
-        lines.append(f"- {series}: U_eq {first.level:+.2f} mm/cycle at N = {first.n_units}, "
-                     f"{last.level:+.2f} at N = {last.n_units}.")
+        lines.append(f"- {series}: U_eq {first.level:+.2f} mm/cycle at N = {first.n_units}{_of_wave(first)}, "
+                     f"{last.level:+.2f} at N = {last.n_units}{_of_wave(last)}.")
     stuck = metrics[~metrics.learned]
     lines.append(f"- A gain not above 0 by {LEARNED_SE:g} standard errors (no gait learned in "
                  f"{int(metrics.steps.max())} steps): " + (", ".join(f"{r.assembly} {r.learner}" for r in
@@ -124,6 +146,14 @@ def findings(metrics: pd.DataFrame) -> list[str]:
     lines.append(f"- Standard error under {SE_TARGET:.0%} of U_eq: {len(met)} of {len(metrics)} conditions "
                  f"({', '.join(f'{r.assembly} {r.learner}' for r in met.itertuples()) or 'none'}).")
     return lines
+
+
+def _of_wave(row) -> str:
+    return "" if math.isnan(row.of_wave) else f" ({row.of_wave:.2f} of its best wave)"
+
+
+def _signed(value: float) -> str:
+    return "-" if math.isnan(value) else f"{value:+.2f}"
 
 
 def _ratio(se: float, level: float) -> float:
@@ -138,9 +168,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("results", help="the results directory of benchmarks/scaling-2d.toml")
     parser.add_argument("--doc", default=str(DOC), help="the page whose generated section is rewritten")
+    parser.add_argument("--waves", default=str(WAVES), help="the best waves (benchmarks/waves.py's file)")
     args = parser.parse_args(argv)
     try:
-        metrics = read_metrics(Path(args.results))
+        metrics = read_metrics(Path(args.results), Path(args.waves))
         lines = table(metrics) + [""] + findings(metrics)
         drawn = figure(metrics, Path(args.doc).parent / "media" / "scaling-2d.png")
         section = "\n".join(["", "", f"![U_eq and steps to 0.8 U_eq against N](media/{drawn.name})", "", *lines, "",

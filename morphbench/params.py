@@ -220,9 +220,10 @@ class PhysicsParams:
     axis for a chain, morphbench.physics.quasistatic, and in the plane otherwise, morphbench.physics.planar);
     'auto': quasistatic where it applies (dynamic for one-layer shapes other than chains of more than
     ``physics.AUTO_DYNAMIC_UNITS`` units, where the exact planar solver grows as N^1.6), pybullet for stacks (and for
-    the camera sensor, which renders a PyBullet scene). The quasi-static model is the limit the PyBullet world converges to (docs/fidelity.md). 'dynamic': the
-    same springs with inertia, planar rigid bodies with stick-slip Coulomb friction integrated at ``dynamic_step``
-    (morphbench.physics.dynamic), for any assembly in one layer on the ground, at any friction."""
+    the camera sensor, which renders a PyBullet scene). The quasi-static model is the limit the PyBullet world
+    converges to (docs/fidelity.md). 'dynamic': the same springs with inertia, planar rigid bodies with stick-slip
+    Coulomb friction integrated at ``dynamic_step`` (morphbench.physics.dynamic), for any assembly in one layer on the
+    ground, at any friction."""
     timestep: float = param(1 / 120, between(1e-4, 0.1), "s")
     """s, physics step (quasistatic: the interval between solves; the solution depends on time only through the
     pressures)."""

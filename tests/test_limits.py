@@ -238,7 +238,8 @@ def test_a_shape_beyond_the_limit_is_refused_saying_why(tmp_path, capsys):
     shape.write_text('[assembly]\ngenerator = "grid"\nrows = 317\ncolumns = 317\n')
     error = _one_line_error(capsys, "run", str(shape), "--out", str(tmp_path / "out"), "--quiet")
     assert error == (f"morphbench: error: {shape}: assembly.columns: expected at most 100000 active units in all "
-                     "(rows x columns = 100489; a larger assembly takes over 4 CPU s per simulated second, a 300-step run over 80 minutes), got 317")
+                     "(rows x columns = 100489; a larger assembly takes over 4 CPU s per simulated second, a 300-step "
+                     "run over 80 minutes), got 317")
     with pytest.raises(ConfigError, match="at most 100000 active units in all .rows x columns = 100489; a larger "
                                           "assembly takes over 4 CPU s per simulated second"):
         sheet(317, 317)

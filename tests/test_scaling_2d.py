@@ -45,8 +45,12 @@ def _metrics(directory: Path) -> Path:
             for j, gain in enumerate(pair)]
     runs.append(("failed", "c0", 0.0, float("nan")))  # a failed run counts for nothing
     pd.DataFrame({"run_id": [r[0] for r in runs], "condition_id": [r[1] for r in runs],
-                  "status": ["done"] * (len(runs) - 1) + ["failed"],
-                  "final_ubar_true": [r[3] for r in runs]}).to_parquet(directory / "runs.parquet")
+                  "status": ["done"] * (len(runs) - 1) + ["failed"], "final_ubar_true": [r[3] for r in runs],
+                  "backend": [("quasistatic" if r[1] < "c2" else "planar" if r[1] == "c2" else "dynamic")
+                              for r in runs]}).to_parquet(directory / "runs.parquet")
+    # best waves of chain-2 and the 16 x 16 sheet (chain-3 and sheet-2x2 not measured), and of a shape not studied
+    pd.DataFrame({"shape": ["chain-2", "sheet-16x16", "ring-8"], "wave": [5.0, 3.0, 1.0]}).to_csv(
+        directory / "waves.csv", index=False)
     # a run's gain counts from step 1, measured as the later steps are; step 0 (no phase change before it) is not it
     steps = [(run_id, step, value) for run_id, _, start, _ in runs
              for step, value in ((0, start + 5.0), (1, start), (2, start + 1.0))]
@@ -56,17 +60,22 @@ def _metrics(directory: Path) -> Path:
 
 def test_the_section_says_which_assemblies_learned_and_how_fast(tmp_path):
     script = _script()
-    metrics = script.read_metrics(_metrics(tmp_path))
+    metrics = script.read_metrics(_metrics(tmp_path), tmp_path / "waves.csv")
     rows = {line.split(" | ")[0].strip("| "): line for line in script.table(metrics)[2:]}
-    assert "| +2.50 | 4% | +2.10 +- 0.10 | yes | 15 +- 18 | 100% |" in rows["chain-2"]  # SE 0.4 / 4 = 0.1, of 2.5
-    assert "+1.80 (final Ubar: no plateau)" in rows["chain-3"] and "| yes | - | - |" in rows["chain-3"]
-    assert "| +0.15 | 17% | -0.05 +- 0.05 | no | - | - |" in rows["sheet-16x16"]  # below its start: no steps
+    # SE 0.4 / 4 = 0.1, of 2.5; U_eq 2.5 of the best wave's 5.0
+    assert "| 2 | quasistatic | thermal | 16 | +2.50 | 4% | +5.00 | +0.50 | +2.10 +- 0.10 | yes | 15 +- 18 | 100% |" \
+        in rows["chain-2"]
+    assert "+1.80 (final Ubar: no plateau) | 22% | - | - |" in rows["chain-3"]  # no best wave measured: no ratio
+    assert "| yes | - | - |" in rows["chain-3"] and "| planar |" in rows["sheet-2x2"]
+    # below its start: no steps
+    assert "| dynamic | thermal | 4 | +0.15 | 17% | +3.00 | +0.05 | -0.05 +- 0.05 | no | - | - |" in rows["sheet-16x16"]
     after = rows["sheet-16x16 (2 cycles discarded)"]  # the same sheet, named apart; U_eq 0.9 against U_0 0.2, but
-    assert "| 256 | thermal | 4 | +0.90 | 6% | +0.15 +- 0.10 | no | - | - |" in after  # its runs gained < 2 SE
-    findings = script.findings(metrics)
-    assert "- chains, thermal: U_eq +2.50 mm/cycle at N = 2, +1.80 at N = 3." in findings
-    assert "- sheets, thermal: U_eq +1.50 mm/cycle at N = 4, +0.15 at N = 256." in findings
-    assert "- sheets, thermal (2 cycles discarded): U_eq +0.90 mm/cycle at N = 256." in findings
+    assert "| 256 | dynamic | thermal | 4 | +0.90 | 6% | +3.00 | +0.30 | +0.15 +- 0.10 | no | - | - |" in after
+    findings = script.findings(metrics)  # ... its runs gained < 2 SE
+    assert "- chains, thermal: U_eq +2.50 mm/cycle at N = 2 (0.50 of its best wave), +1.80 at N = 3." in findings
+    assert "- sheets, thermal: U_eq +1.50 mm/cycle at N = 4, +0.15 at N = 256 (0.05 of its best wave)." in findings
+    assert "- sheets, thermal (2 cycles discarded): U_eq +0.90 mm/cycle at N = 256 (0.30 of its best wave)." \
+        in findings
     assert any(line.endswith("(no gait learned in 300 steps): sheet-16x16 thermal, sheet-16x16 (2 cycles discarded) "
                              "thermal.") for line in findings)
     assert findings[-1] == ("- Standard error under 10% of U_eq: 2 of 5 conditions (chain-2 thermal, "
@@ -77,13 +86,16 @@ def test_the_command_rewrites_its_section_and_refuses_a_directory_without_metric
     script = _script()
     doc = tmp_path / "page.md"
     doc.write_text(f"head\n{script.BEGIN}\nold\n{script.END}\ntail\n")
-    assert script.main([str(_metrics(tmp_path)), "--doc", str(doc)]) == 0
+    waves = ["--waves", str(tmp_path / "waves.csv")]
+    assert script.main([str(_metrics(tmp_path)), "--doc", str(doc), *waves]) == 0
     text = doc.read_text()
     assert text.startswith(f"head\n{script.BEGIN}\n") and text.endswith(f"{script.END}\ntail\n")
-    assert "old" not in text and "| sheet-2x2 | 4 | thermal | 8 |" in text
+    assert "old" not in text and "| sheet-2x2 | 4 | planar | thermal | 8 |" in text
     assert "](media/scaling-2d.png)" in text and (tmp_path / "media" / "scaling-2d.png").is_file()
     empty = tmp_path / "empty"
     empty.mkdir()
-    assert script.main([str(empty), "--doc", str(doc)]) == 2
+    assert script.main([str(empty), "--doc", str(doc), *waves]) == 2
     assert f"{empty}: metrics.parquet: expected the results directory" in capsys.readouterr().err
+    assert script.main([str(tmp_path), "--doc", str(doc), "--waves", str(empty / "waves.csv")]) == 2
+    assert "waves.csv: file: expected the best waves written by `python benchmarks/waves.py`" in capsys.readouterr().err
     assert doc.read_text() == text  # nothing written

@@ -54,3 +54,18 @@ def test_a_page_without_the_markers_is_refused_before_measuring(tmp_path, capsys
     page.write_text("no markers\n")
     assert _script().main(["--resolution", "2", "--samples", "2", "--doc", str(page)]) == 2
     assert "markers" in capsys.readouterr().err and page.read_text() == "no markers\n"
+
+
+def test_the_best_waves_file_is_what_the_scaling_study_reads(tmp_path):
+    """waves.py's file, read by benchmarks/scaling_2d.py: each assembly's best wave by its shape's name."""
+    script = _script()
+    rows = [{"shape": "chain-2", "n_units": 2, "backend": "quasistatic", "wave": (0.375, 4.9),
+             "random": (0.1, 1.5, 2.0)},
+            {"shape": "sheet-32x32", "n_units": 1024, "backend": "dynamic", "wave": (0.4, 6.1),
+             "random": (0.0, 0.2, 0.3)}]
+    script.write_csv(rows, tmp_path / "waves.csv")
+    spec = importlib.util.spec_from_file_location("scaling_2d_script", BENCHMARKS_DIR / "scaling_2d.py")
+    scaling = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(scaling)
+    waves = scaling.best_waves(tmp_path / "waves.csv")
+    assert dict(zip(waves["shape"], waves["wave"])) == {"chain-2": 4.9, "sheet-32x32": 6.1}

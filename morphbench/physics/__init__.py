@@ -192,6 +192,6 @@ def make_world(shape, physics: PhysicsParams, environment: EnvironmentParams = E
     return BATCHING[backend](shape, physics, environment, copies)
 
 
-__all__ = ["AUTO_DYNAMIC_UNITS", "BACKENDS", "Batch", "PlanarWorld", "QuasiStaticWorld", "Scene", "World", "WorldInterface",
-           "available_memory", "can_batch", "check_memory", "make_world", "memory_estimate", "pressure_trajectory",
-           "pump_on", "quasistatic_world", "resolve_backend"]
+__all__ = ["AUTO_DYNAMIC_UNITS", "BACKENDS", "Batch", "PlanarWorld", "QuasiStaticWorld", "Scene", "World",
+           "WorldInterface", "available_memory", "can_batch", "check_memory", "make_world", "memory_estimate",
+           "pressure_trajectory", "pump_on", "quasistatic_world", "resolve_backend"]
