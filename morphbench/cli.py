@@ -23,6 +23,7 @@ from morphbench.params import (
     DEFAULT_SEED,
     DEFAULT_STEPS,
     LEARNER_HELP,
+    LEARNER_PRESETS,
     PHYSICS_PRESET,
     PHYSICS_PRESETS,
     SEED,
@@ -31,6 +32,7 @@ from morphbench.params import (
     EnvironmentParams,
     LearnerParams,
     SensorParams,
+    learner_defaults,
 )
 from morphbench.render.options import add_render_arguments, video_params_from_args
 from morphbench.rules import field_option, option_type
@@ -78,14 +80,17 @@ def _parser() -> argparse.ArgumentParser:
                      help=f"learning steps after the initial measurement (default {DEFAULT_STEPS})")
     learner, sensor = LearnerParams(), SensorParams()
     run.add_argument("--seed", type=option_type(SEED), help=f"run seed (default {DEFAULT_SEED})")
+    sparse = LEARNER_PRESETS["sparse"]
     run.add_argument("--temperature", type=field_option(LearnerParams, "temperature"),
-                     help=f"T in mm/cycle, 0 greedy, inf accepts every trial (default {learner.temperature:g})")
+                     help=f"T in mm/cycle, 0 greedy, inf accepts every trial (default {learner.temperature:g}; "
+                          f"sparse {sparse.temperature:g})")
     run.add_argument("--step-size", type=field_option(LearnerParams, "step_size"),
-                     help=f"delta_s in cycles (default {learner.step_size:g})")
+                     help=f"delta_s in cycles (default {learner.step_size:g}; sparse {sparse.step_size:g})")
     run.add_argument("--cycles-per-step", type=field_option(LearnerParams, "cycles_per_step"),
-                     help=f"pump cycles each learning step measures, from its phase change on (default "
+                     help=f"pump cycles each learning step measures, after its discarded cycles (default "
                           f"{learner.cycles_per_step}; a step lasts discard_cycles + these, "
-                          f"{learner.discard_cycles} + {learner.cycles_per_step} by default)")
+                          f"{learner.discard_cycles} + {learner.cycles_per_step} by default, "
+                          f"{sparse.discard_cycles} + {sparse.cycles_per_step} for sparse)")
     run.add_argument("--sensor", choices=SENSOR_KINDS, help=f"how units measure their motion (default {sensor.kind})")
     run.add_argument("--noise", type=field_option(EnvironmentParams, "noise"),
                      help=f"Gaussian measurement noise, mm/cycle (default {EnvironmentParams().noise:g})")
@@ -205,10 +210,13 @@ def _with_options(config, args):
     """The configuration with the command-line options that were given."""
     learner = {"temperature": args.temperature, "step_size": args.step_size, "cycles_per_step": args.cycles_per_step}
     top = {"learner": args.learner, "steps": args.steps, "seed": args.seed}  # --physics: load_run_config merges it
+    base = config.learner_params
+    if args.learner is not None and base == learner_defaults(config.learner):  # the file set none of its own
+        base = learner_defaults(args.learner)
     return replace(
         config,
         **{key: value for key, value in top.items() if value is not None},
-        learner_params=replace(config.learner_params, **{k: v for k, v in learner.items() if v is not None}),
+        learner_params=replace(base, **{k: v for k, v in learner.items() if v is not None}),
         sensor=replace(config.sensor, kind=args.sensor or config.sensor.kind),
         environment=replace(config.environment, noise=config.environment.noise if args.noise is None else args.noise),
     )

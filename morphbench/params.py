@@ -114,7 +114,7 @@ FRICTION_TARGETS: tuple[str, ...] = get_args(FrictionTarget)
 """the bodies a friction event changes: every body, the active units', or the passive ones' (the dummy's)."""
 InitialMemory = Literal["measure", "-inf", "zero"]
 INITIAL_MEMORY_CHOICES: tuple[str, ...] = get_args(InitialMemory)
-LEARNER_HELP = ("thermal, flaky, averaged, adaptive, random (no learning), a centralized baseline (cmaes, "
+LEARNER_HELP = ("thermal, flaky, averaged, adaptive, sparse, random (no learning), a centralized baseline (cmaes, "
                 "random-search, hill-climber) or a plug-in package.module:Class (its directory on PYTHONPATH)")
 """How the command line names the learners (run, leaderboard): every built-in of learning.plugins.LEARNERS, which
 tests/test_cli.py holds it to."""
@@ -315,6 +315,23 @@ class LearnerParams:
     step_size_max: float = param(0.5, between(0, 1, low_inclusive=False), "cycles", later=True)
     """the largest step size the 'adaptive' learner grows to (at least step_size_min; 0.5 already reaches every
     phase)."""
+    trial_probability: float = param(0.2, Range(0, 1, low_inclusive=False, high_inclusive=True), later=True)
+    """p, of the 'sparse' learner: each learning step a unit tries a new phase with this probability, else keeps its
+    phase and takes the step's measurement as its memory; 1 tries every step (Thermal's rule, with that refresh)."""
+
+
+LEARNER_PRESETS: dict[str, LearnerParams] = {
+    "sparse": LearnerParams(step_size=0.05, temperature=0.05, cycles_per_step=1, discard_cycles=1),
+}
+"""The learners whose own settings differ from LearnerParams' defaults, by ``--learner`` name: what a run of that
+learner starts from (a file's or an option's fields on top). The sparse learner's: small steps, a cold temperature
+(a single unit's effect in a chain of 20 is 0.3-1.5 mm/cycle, against Thermal's 0.6), and each 2-cycle step judged on
+its second cycle, after its first has carried the phase change's transient (docs/learners.md, "Sparse")."""
+
+
+def learner_defaults(name: str) -> LearnerParams:
+    """The parameters a run of learner ``name`` starts from: its preset (``LEARNER_PRESETS``), else the defaults."""
+    return LEARNER_PRESETS.get(name.strip().lower(), LearnerParams()) if isinstance(name, str) else LearnerParams()
 
 
 def check_learner(params: LearnerParams, source: str, prefix: str = "") -> LearnerParams:

@@ -15,9 +15,10 @@ from morphbench.errors import ConfigError
 from morphbench.rules import check
 
 
-def params_from_table(cls: type, table: Any, source: str, section: str):
+def params_from_table(cls: type, table: Any, source: str, section: str, base: Any = None):
     """A frozen parameter dataclass from a TOML table, every key checked against the dataclass's fields; a field
-    that is itself a parameter dataclass is read from a sub-table."""
+    that is itself a parameter dataclass is read from a sub-table; the fields the table leaves out are ``base``'s
+    (an instance of ``cls``), else the defaults."""
     if not isinstance(table, dict):
         raise ConfigError(source, section, f"a table of {cls.__name__} fields", table)
     fields = {f.name: f for f in dataclasses.fields(cls)}
@@ -29,7 +30,7 @@ def params_from_table(cls: type, table: Any, source: str, section: str):
             values[key] = params_from_table(type(default), value, source, f"{section}.{key}")
         else:
             values[key] = check(cls, key, value, source, f"{section}.{key}")
-    return cls(**values)
+    return cls(**values) if base is None else dataclasses.replace(base, **values)
 
 
 def params_from_dict(cls: type, data: dict[str, Any]):

@@ -243,7 +243,7 @@ def test_bad_scan_option_value(tmp_path: Path, capsys):
 @pytest.mark.parametrize(
     "spec, expected",
     [
-        ("nosuch", "'thermal', 'flaky', 'averaged', 'adaptive' or 'random'"),
+        ("nosuch", "'thermal', 'flaky', 'averaged', 'adaptive', 'sparse' or 'random'"),
         ("nosuchmodule:X", "an importable module 'nosuchmodule'"),
         ("json:JSONDecoder", "to have methods propose() and update(velocity) (missing: propose, update)"),
         ("json:NoSuchClass", "to define a class 'NoSuchClass'"),
@@ -369,7 +369,7 @@ def test_the_help_names_every_learner_and_shows_examples(capsys):
         code, out, _ = run_cli(capsys, *command)
         assert code == 0 and "averaged, adaptive" in " ".join(out.split())
     code, out, _ = run_cli(capsys, "run", "--help")
-    assert "name of a shipped shape" in " ".join(out.split()) and "from its phase change" in " ".join(out.split())
+    assert "name of a shipped shape" in " ".join(out.split()) and "after its discarded cycles" in " ".join(out.split())
 
 
 def test_the_camera_sensor_says_it_moves_the_run_to_pybullet(capsys):

@@ -1,5 +1,6 @@
-"""The learners beyond the paper (docs/learners.md): Averaged (the memory an exponential average of the measurements)
-and Adaptive (Thermal with a step size steered by its acceptance rate). Their rules on scripted measurements, the
+"""The learners beyond the paper (docs/learners.md): Averaged (the memory an exponential average of the measurements),
+Adaptive (Thermal with a step size steered by its acceptance rate) and Sparse (trials on a fraction of the steps, its
+own settings as its defaults). Their rules on scripted measurements, the
 identities with Flaky and Thermal, a batch equal to its runs alone, learning on a chain, and their parameters'
 messages."""
 
@@ -227,3 +228,31 @@ def test_step_size_bounds_out_of_order_are_refused_in_files_the_api_and_the_comm
     assert code == 2 and err.strip().splitlines() == [f"morphbench: error: {message}"]
     with pytest.raises(ConfigError, match=r"^LearnerParams: step_size_max: expected a step size >= step_size_min"):
         AdaptiveLearner(LearnerParams(step_size_min=0.3, step_size_max=0.2), np.random.default_rng(0))
+
+
+def test_the_sparse_learner_runs_with_its_own_settings_unless_given_others(tmp_path, capsys):
+    """Its preset (params.LEARNER_PRESETS) is what a run of it starts from, through every door: the API, a run file
+    (its fields on top) and --learner (the options on top); a file that sets its own learner fields keeps them."""
+    from morphbench.params import LEARNER_PRESETS
+    import json
+
+    preset, shape = LEARNER_PRESETS["sparse"], load_shape(SHAPES_DIR / "chain-2.toml")
+    assert preset != LearnerParams() and preset.cycles_per_step + preset.discard_cycles == 2  # a step of 2 cycles
+    assert RunConfig(shape=shape, learner="sparse").learner_params == preset
+    assert RunConfig(shape=shape, learner="Sparse").learner_params == preset
+    assert RunConfig(shape=shape).learner_params == LearnerParams()
+    head = f'shape = "{SHAPES_DIR / "chain-2.toml"}"\n[learner]\n'
+    path = write(tmp_path, name="run.toml", text=head + 'name = "sparse"\ntemperature = 0.2\n')
+    assert load_run_config(path).learner_params == dataclasses.replace(preset, temperature=0.2)
+
+    def ran(*argv):
+        out = tmp_path / f"out-{len(list(tmp_path.glob('out-*')))}"
+        code, _, err = run_cli(capsys, "run", *argv, "--steps", "2", "--quiet", "--out", str(out))
+        assert code == 0, err
+        return json.loads((out / "summary.json").read_text())["config"]["learner_params"]
+
+    assert ran("chain-2", "--learner", "sparse") == dataclasses.asdict(preset)
+    assert ran("chain-2", "--learner", "sparse", "--step-size", "0.2") == \
+        dataclasses.asdict(dataclasses.replace(preset, step_size=0.2))
+    own = write(tmp_path, name="own.toml", text=head + "step_size = 0.3\n")
+    assert ran(str(own), "--learner", "sparse") == dataclasses.asdict(LearnerParams(step_size=0.3))

@@ -376,7 +376,7 @@ BAD_MODULES = {
 @pytest.mark.parametrize(
     "spec, expected",
     [
-        ("metropolis", "'thermal', 'flaky', 'averaged', 'adaptive' or 'random'"),
+        ("metropolis", "'thermal', 'flaky', 'averaged', 'adaptive', 'sparse' or 'random'"),
         ("mb_shapes", "package.module:ClassName"),  # no colon
         ("mb_shapes:", "package.module:ClassName"),
         (":NoUpdate", "package.module:ClassName"),
@@ -482,7 +482,7 @@ def test_thermal_beats_random_phase_changes_on_a_chain():
     assert thermal > 2.0 and thermal > random + 1.5
 
 
-@pytest.mark.parametrize("name", ["thermal", "flaky", "averaged", "adaptive", "random"])
+@pytest.mark.parametrize("name", ["thermal", "flaky", "averaged", "adaptive", "sparse", "random"])
 @pytest.mark.parametrize("initial_memory, temperature", [("measure", 0.5), ("-inf", 0.0), ("zero", math.inf),
                                                          ("measure", 3.0)])
 def test_the_arrays_of_a_built_in_learner_step_as_its_objects(name, initial_memory, temperature):
@@ -508,7 +508,7 @@ def test_the_arrays_of_a_built_in_learner_step_as_its_objects(name, initial_memo
         assert np.array_equal(arrays.memory(), objects.memory(), equal_nan=True)
 
 
-@pytest.mark.parametrize("rule", ["thermal", "flaky", "adaptive"])
+@pytest.mark.parametrize("rule", ["thermal", "flaky", "adaptive", "sparse"])
 def test_a_run_s_view_of_a_joint_controller_is_that_run_s_own_controller(rule):
     """Three runs' units in one UnitArrays: run 1's view proposes, accepts and remembers what run 1's own
     controller does, step by step, with units dying and stepping alone, while the other runs' units wait."""
@@ -533,3 +533,45 @@ def test_a_run_s_view_of_a_joint_controller_is_that_run_s_own_controller(rule):
     with pytest.raises(ConfigError, match="of unit 2 at learning step 30"):  # numbered within its run
         view.propose(30, np.ones(n, bool))
         view.update(30, np.array([1.0, np.nan, 1.0, 1.0]), np.ones(n, bool))
+
+
+def test_a_sparse_unit_tries_on_a_fraction_of_its_steps_and_refreshes_its_memory_on_the_others():
+    """The sparse learner: on a step it does not try, its phase stays, its memory becomes the step's measurement
+    and it reports no acceptance; it tries on about trial_probability of its steps (binomial, 1,000 steps)."""
+    from morphbench.learning.metropolis import SparseLearner
+
+    learner = SparseLearner(LearnerParams(trial_probability=0.2, temperature=0.0), np.random.default_rng(3))
+    assert learner.propose() == learner.phase and learner.update(1.0) and learner.memory == 1.0  # 'measure'
+    tries, rng = 0, np.random.default_rng(4)
+    for _ in range(1000):
+        kept, trial = learner.phase, learner.propose()
+        velocity = float(rng.normal(0.0, 1.0))
+        before, accepted = learner.memory, learner.update(velocity)
+        if learner.trying:
+            tries += 1
+            assert accepted == (velocity >= before)  # greedy at T = 0: a trial as good as the memory is kept
+            assert learner.memory == (velocity if accepted else before)
+            assert learner.phase == (trial if accepted else kept)
+        else:
+            assert trial == kept == learner.phase and not accepted and learner.memory == velocity
+    assert abs(tries - 200) < 4 * (1000 * 0.2 * 0.8) ** 0.5
+
+
+@pytest.mark.parametrize("name", ["thermal", "flaky", "averaged", "adaptive", "sparse", "random"])
+def test_a_unit_s_learner_cannot_see_another_unit_s_measurements(name):
+    """No communication: whatever the other units measure, a unit's proposals, acceptances, kept phases and memory
+    are the same (its own measurements and its own stream alone decide them), in the arrays a run steps."""
+    from morphbench.learning.plugins import make_controller
+
+    cls, n, rng = load_learner_class(name), 4, np.random.default_rng(5)
+    one, other = make_controller(cls, LearnerParams(), 9, n), make_controller(cls, LearnerParams(), 9, n)
+    alive = np.ones(n, bool)
+    for step in range(200):
+        a, b = one.propose(step, alive), other.propose(step, alive)
+        assert a[0] == b[0]
+        u = rng.normal(1.0, 2.0, n)
+        v = u.copy()
+        v[1:] = rng.normal(-3.0, 5.0, n - 1)  # the others' measurements: anything else
+        (accepted_a, kept_a), (accepted_b, kept_b) = one.update(step, u, alive), other.update(step, v, alive)
+        assert accepted_a[0] == accepted_b[0] and kept_a[0] == kept_b[0]
+        assert one.memory()[0] == other.memory()[0]

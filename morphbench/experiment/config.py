@@ -54,6 +54,7 @@ from morphbench.params import (
     PhysicsParams,
     SensorParams,
     TEXT,
+    learner_defaults,
 )
 from morphbench.readers import params_from_table
 from morphbench.rules import check_rule
@@ -106,7 +107,7 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path,
     fields = dict(
         shape=shape,
         learner=learner,
-        learner_params=params_from_table(LearnerParams, learner_table, source, "learner"),
+        learner_params=params_from_table(LearnerParams, learner_table, source, "learner", learner_defaults(learner)),
         sensor=params_from_table(SensorParams, _table(table, "sensor", source), source, "sensor"),
         environment=params_from_table(EnvironmentParams, _table(table, "environment", source), source, "environment"),
         events=parse_events(table.get("events", []), source, shape.n_units, len(shape.links)),

@@ -32,6 +32,7 @@ from morphbench.params import (
     PhysicsParams,
     SensorParams,
     check_run,
+    learner_defaults,
 )
 from morphbench.physics import WorldInterface
 from morphbench.physics.bellows import link_spans
@@ -51,7 +52,8 @@ class RunConfig:
     learner: str = "thermal"
     """'thermal', 'flaky', 'averaged', 'adaptive', 'random', a centralized 'cmaes', 'random-search',
     'hill-climber', or a plug-in 'package.module:Class'."""
-    learner_params: LearnerParams = field(default_factory=LearnerParams)
+    learner_params: LearnerParams = None  # type: ignore[assignment]  # None: the learner's own (__post_init__)
+    """the learners' parameters; by default the learner's own (``params.learner_defaults``)."""
     sensor: SensorParams = field(default_factory=SensorParams)
     environment: EnvironmentParams = field(default_factory=EnvironmentParams)
     events: tuple[Event, ...] = ()
@@ -62,6 +64,8 @@ class RunConfig:
     seed: int = DEFAULT_SEED
 
     def __post_init__(self):
+        if self.learner_params is None:
+            object.__setattr__(self, "learner_params", learner_defaults(self.learner))
         check_run(self, self.shape.source)
 
     def to_dict(self) -> dict:

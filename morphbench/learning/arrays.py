@@ -1,5 +1,5 @@
-"""The built-in per-unit learners of a run (thermal, flaky, averaged, adaptive, random) stepped as arrays over its
-units.
+"""The built-in per-unit learners of a run (thermal, flaky, averaged, adaptive, sparse, random) stepped as arrays
+over its units.
 
 Each unit keeps its own state and its own random stream (``plugins.unit_rng``), and draws from it exactly the numbers
 ``metropolis.MetropolisLearner`` or ``baselines.RandomLearner`` draws, in the same order: every draw of those learners
@@ -65,8 +65,8 @@ def accepts(draws: np.ndarray, delta: np.ndarray, temperature: float) -> np.ndar
 
 
 class UnitArrays(Controller):
-    """``rule`` 'thermal', 'flaky', 'averaged', 'adaptive' or 'random' for every unit of a run, unit u drawing from
-    ``rngs[u]``."""
+    """``rule`` 'thermal', 'flaky', 'averaged', 'adaptive', 'sparse' or 'random' for every unit of a run, unit u
+    drawing from ``rngs[u]``."""
 
     centralized = False
 
@@ -83,6 +83,7 @@ class UnitArrays(Controller):
         self.step_size = np.full(len(rngs), params.step_size)
         self.window_trials = np.zeros(len(rngs), dtype=int)  # the adaptive rule's current window, per unit
         self.window_accepted = np.zeros(len(rngs), dtype=int)
+        self.trying = np.ones(len(rngs), dtype=bool)  # the sparse rule's units trying a phase this step
 
     def initial(self) -> np.ndarray:
         return self.phase.copy()
@@ -96,6 +97,9 @@ class UnitArrays(Controller):
             trial[asking] = self.draws.next(asking)
         else:
             asking = np.flatnonzero(due & self.measured)
+            if self.rule == "sparse":  # whether to try, drawn before the trial's own uniform
+                self.trying[asking] = self.draws.next(asking) < self.params.trial_probability
+                asking = asking[self.trying[asking]]
             eps = -1.0 + 2.0 * self.draws.next(asking)
             trial[asking] = wrap_phases(self.phase[asking] + eps * self.step_size[asking])
         self.trial = trial
@@ -114,6 +118,10 @@ class UnitArrays(Controller):
         first, rest = live[~self.measured[live]], live[self.measured[live]]
         self._memory[first], self.measured[first] = velocity[first], True
         accepted[first] = True
+        if self.rule == "sparse":  # a unit that tried nothing takes the step's measurement as its memory
+            kept = rest[~self.trying[rest]]
+            self._memory[kept] = velocity[kept]
+            rest = rest[self.trying[rest]]
         worse = rest[velocity[rest] < self._memory[rest]]
         accepted[rest] = True  # no draw: a trial at least as good is always accepted
         accepted[worse] = accepts(self.draws.next(worse), velocity[worse] - self._memory[worse],

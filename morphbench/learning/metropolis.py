@@ -1,6 +1,7 @@
 """Metropolis learners (Oliveri et al., PNAS 2021, and its SI Fig. S1; docs/paper.md, Protocol): Thermal and Flaky
 differ only in what the memory holds after a trial; beyond the paper (docs/learners.md), Averaged keeps an exponential
-average of the measurements and Adaptive is Thermal with a step size steered by its acceptance rate.
+average of the measurements, Adaptive is Thermal with a step size steered by its acceptance rate, and Sparse tries a
+new phase only on some steps, refreshing its memory on the others.
 
 Each step a learner tries ``phi_try = (phi + eps * step_size) mod 1`` with ``eps ~ uniform[-1, 1]`` and accepts it
 with probability ``min(1, exp((U_try - U_mem) / T))``. A uniform for that decision is drawn exactly when the trial
@@ -134,3 +135,33 @@ class AdaptiveLearner(ThermalLearner):
                 self.step_size = float(adapted_step_size(self.step_size, self.window_accepted, self.params))
                 self.window_trials = self.window_accepted = 0
         return accepted
+
+
+class SparseLearner(ThermalLearner):
+    """Thermal that tries a new phase only with probability ``trial_probability`` per step, so that fewer units of an
+    assembly change at once; on the other steps it keeps its phase and its memory becomes the step's measurement,
+    what its kept phase gives among the others' current phases (so a later trial is judged against the present, not
+    against a reading taken before the others moved). Such a step tried nothing and accepted nothing (False). The
+    uniform that decides whether to try is drawn before the trial's own, and not on the first step of 'measure'."""
+
+    def __init__(self, params: LearnerParams, rng: np.random.Generator):
+        super().__init__(params, rng)
+        self.trying = False
+
+    def propose(self) -> float:
+        if self._trial is not None:
+            raise RuntimeError("propose() called twice without update() in between")
+        self.trying = self.memory is not None and float(self.rng.uniform(0.0, 1.0)) < self.params.trial_probability
+        if self.trying or self.memory is None:
+            return super().propose()
+        self._trial = self.phase
+        return self._trial
+
+    def update(self, velocity: float) -> bool:
+        if self.trying or self.memory is None or self._trial is None:
+            return super().update(velocity)
+        velocity = float(velocity)
+        if not math.isfinite(velocity):
+            raise ValueError(f"measured velocity must be finite, got {velocity!r}")
+        self._trial, self.memory = None, velocity
+        return False

@@ -1,8 +1,8 @@
 """Choosing a learner by name (``--learner``), per-unit random streams, and building one learner per unit.
 
-``--learner`` takes ``thermal``, ``flaky``, ``averaged``, ``adaptive`` or ``random`` (the no-learning baseline; any
-case; docs/learners.md), or a plug-in class as ``package.module:ClassName``; the module is imported with
-``importlib``, so its directory must be on ``sys.path`` (e.g. via ``PYTHONPATH``).
+``--learner`` takes ``thermal``, ``flaky``, ``averaged``, ``adaptive``, ``sparse`` or ``random`` (the no-learning
+baseline; any case; docs/learners.md), or a plug-in class as ``package.module:ClassName``; the module is imported
+with ``importlib``, so its directory must be on ``sys.path`` (e.g. via ``PYTHONPATH``).
 It also takes the centralized baselines ``cmaes``, ``random-search`` and ``hill-climber``
 (morphbench.learning.controllers): one controller for all units instead of one learner per unit.
 ``make_controller`` builds either for the run loop.
@@ -67,12 +67,18 @@ from morphbench.learning.base import Controller, wrap_phase
 from morphbench.learning.arrays import UnitArrays
 from morphbench.learning.baselines import RandomLearner
 from morphbench.learning.controllers import CENTRALIZED, controller_rng
-from morphbench.learning.metropolis import AdaptiveLearner, AveragedLearner, FlakyLearner, ThermalLearner
+from morphbench.learning.metropolis import (
+    AdaptiveLearner,
+    AveragedLearner,
+    FlakyLearner,
+    SparseLearner,
+    ThermalLearner,
+)
 from morphbench.params import LearnerParams
 from morphbench.streams import LEARNER_STREAM
 
 ARRAYS = {"thermal": ThermalLearner, "flaky": FlakyLearner, "averaged": AveragedLearner, "adaptive": AdaptiveLearner,
-          "random": RandomLearner}
+          "sparse": SparseLearner, "random": RandomLearner}
 """The per-unit built-ins by ``--learner`` name, which a run steps as arrays over its units (learning/arrays.py),
 with the same draws as their objects."""
 
@@ -80,8 +86,8 @@ LEARNERS: dict[str, type] = {**ARRAYS, **CENTRALIZED}
 """Every built-in by ``--learner`` name: the per-unit learners, then the centralized controllers."""
 
 _SOURCE = "--learner"
-_SPEC_FORM = ("'thermal', 'flaky', 'averaged', 'adaptive' or 'random' (per unit), 'cmaes', 'random-search' or "
-              "'hill-climber' (centralized; any case), or a plug-in class as 'package.module:ClassName'")
+_SPEC_FORM = ("'thermal', 'flaky', 'averaged', 'adaptive', 'sparse' or 'random' (per unit), 'cmaes', 'random-search' "
+              "or 'hill-climber' (centralized; any case), or a plug-in class as 'package.module:ClassName'")
 _METHODS = ("propose", "update")
 
 
