@@ -1,6 +1,7 @@
-"""The per-unit learners side by side (docs/learners.md, "Measured"): final Ubar of random, thermal, flaky, averaged
-and adaptive at their defaults over 8 seeds (mean +- standard error), ideal sensor, on chains and on the S5 and S6
-examples (whose cells add the mean true Ubar from the event on). Prints the table's rows in markdown.
+"""The per-unit learners side by side (docs/learners.md, "Measured"): final Ubar of random, thermal, flaky, averaged,
+adaptive and sparse at their defaults (sparse: its own, params.LEARNER_PRESETS) over 8 seeds (mean +- standard
+error), ideal sensor, on chains and on the S5 and S6 examples (whose cells add the mean true Ubar from the event on).
+Prints the table's rows in markdown.
 
     python benchmarks/learners.py      # under a minute on one core
 """
@@ -14,19 +15,20 @@ import numpy as np
 
 from morphbench.experiment import RunConfig, load_run_config
 from morphbench.experiment.driver import run_batch
-from morphbench.params import EnvironmentParams, SensorParams
+from morphbench.params import EnvironmentParams, SensorParams, learner_defaults
 from morphbench.shapes import load_shape
 
 ROOT = Path(__file__).resolve().parent.parent
 IDEAL = SensorParams(kind="ideal")
-LEARNERS = ("random", "thermal", "flaky", "averaged", "adaptive")
+LEARNERS = ("random", "thermal", "flaky", "averaged", "adaptive", "sparse")
 SEEDS = range(8)
 
 
 def row(name: str, base: RunConfig, event_step: int | None = None) -> str:
     cells = []
     for learner in LEARNERS:
-        done = run_batch([dataclasses.replace(base, learner=learner, seed=seed) for seed in SEEDS])
+        done = run_batch([dataclasses.replace(base, learner=learner, seed=seed,
+                                              learner_params=learner_defaults(learner)) for seed in SEEDS])
         final = np.array([records.summary()["final_ubar"] for records in done])
         cell = f"{final.mean():+.2f} ± {final.std(ddof=1) / np.sqrt(len(final)):.2f}"
         if event_step is not None:
