@@ -315,18 +315,18 @@ class LearnerParams:
     step_size_max: float = param(0.5, between(0, 1, low_inclusive=False), "cycles", later=True)
     """the largest step size the 'adaptive' learner grows to (at least step_size_min; 0.5 already reaches every
     phase)."""
-    trial_probability: float = param(0.2, Range(0, 1, low_inclusive=False, high_inclusive=True), later=True)
+    trial_probability: float = param(0.25, Range(0, 1, low_inclusive=False, high_inclusive=True), later=True)
     """p, of the 'sparse' learner: each learning step a unit tries a new phase with this probability, else keeps its
     phase and takes the step's measurement as its memory; 1 tries every step (Thermal's rule, with that refresh)."""
 
 
 LEARNER_PRESETS: dict[str, LearnerParams] = {
-    "sparse": LearnerParams(step_size=0.05, temperature=0.05, cycles_per_step=1, discard_cycles=1),
+    "sparse": LearnerParams(step_size=0.05, temperature=0.01, cycles_per_step=1, discard_cycles=1),
 }
 """The learners whose own settings differ from LearnerParams' defaults, by ``--learner`` name: what a run of that
 learner starts from (a file's or an option's fields on top). The sparse learner's: small steps, a cold temperature
 (a single unit's effect in a chain of 20 is 0.3-1.5 mm/cycle, against Thermal's 0.6), and each 2-cycle step judged on
-its second cycle, after its first has carried the phase change's transient (docs/learners.md, "Sparse")."""
+its second cycle, after its first has carried the phase change's transient (docs/learners.md)."""
 
 
 def learner_defaults(name: str) -> LearnerParams:
