@@ -34,27 +34,32 @@ TARGETS = {"chain-20": 0.5, "sheet-16x16": 0.3}
 
 def levels(results: Path, waves: Path = WAVES) -> pd.DataFrame:
     """Per shape and learner: ``runs``, ``level`` (mean true Ubar over the last WINDOW steps, mm/cycle), ``se``,
+    ``rise`` (the level less the mean over the WINDOW steps before, mm/cycle: still learning?) and ``rise_se``,
     ``wave`` (the best wave, mm/cycle), ``share`` (level / wave) and its standard error ``share_se``."""
     runs = _table(results, "runs.parquet", ["run_id", "shape", "learner", "status", "steps"])
     steps = _table(results, "steps.parquet", ["run_id", "step", "ubar_true"])
     runs = runs[runs.status == "done"]
-    last = steps.merge(runs[["run_id", "steps"]], on="run_id")
-    last = last[last.step > last.steps - WINDOW].groupby("run_id").ubar_true.mean().rename("level")
-    runs = runs.merge(last, on="run_id")
-    grouped = runs.groupby(["shape", "learner"], sort=False)["level"]
-    table = pd.DataFrame({"runs": grouped.count(), "level": grouped.mean(),
-                          "se": grouped.std() / grouped.count() ** 0.5}).reset_index()
+    steps = steps.merge(runs[["run_id", "steps"]], on="run_id")
+    window = (steps.steps - steps.step) // WINDOW  # 0: the last WINDOW steps, 1: the WINDOW before them
+    runs = runs.merge(steps[window == 0].groupby("run_id").ubar_true.mean().rename("level"), on="run_id")
+    runs = runs.merge(steps[window == 1].groupby("run_id").ubar_true.mean().rename("before"), on="run_id")
+    runs["rise"] = runs.level - runs.before
+    level, rise = (runs.groupby(["shape", "learner"], sort=False)[column] for column in ("level", "rise"))
+    table = pd.DataFrame({"runs": level.count(), "level": level.mean(), "se": level.std() / level.count() ** 0.5,
+                          "rise": rise.mean(), "rise_se": rise.std() / rise.count() ** 0.5}).reset_index()
     table = table.merge(best_waves(waves), on="shape", how="left")
     table["share"], table["share_se"] = table.level / table.wave, table.se / table.wave
     return table
 
 
 def table(rows: pd.DataFrame, steps: int) -> list[str]:
-    lines = [f"| assembly | learner | runs | true Ubar, steps {steps - WINDOW + 1}-{steps} (mm/cycle, +- SE) | the "
-             "best wave (mm/cycle) | share of it (+- SE) | the share aimed at |", "|---|---|---|---|---|---|---|"]
+    lines = [f"| assembly | learner | runs | true Ubar, steps {steps - WINDOW + 1}-{steps} (mm/cycle, +- SE) | its "
+             f"rise from steps {steps - 2 * WINDOW + 1}-{steps - WINDOW} (+- SE) | the best wave (mm/cycle) | share of "
+             "it (+- SE) | the share aimed at |", "|---|---|---|---|---|---|---|---|"]
     for row in rows.itertuples():
         target = TARGETS.get(row.shape)
         lines.append(f"| {row.shape} | {row.learner} | {row.runs} | {row.level:+.2f} +- {row.se:.2f} | "
+                     f"{row.rise:+.2f} +- {row.rise_se:.2f} | "
                      f"{row.wave:+.2f} | {row.share:.2f} +- {row.share_se:.2f} | "
                      f"{'-' if target is None else f'{target:.1f}: ' + ('met' if row.share >= target else 'not met')}"
                      " |")

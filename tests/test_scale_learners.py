@@ -19,13 +19,13 @@ def _script():
 
 
 def _results(directory):
-    """chain-20: two sparse runs at 3.0 and 3.4 over steps 101-200 (1.0 before), two thermal at 0.2 and 0.4; a
+    """300 steps. chain-20: two sparse runs at 3.0 and 3.4 from step 101 (1.0 before), two thermal at 0.2 and 0.4; a
     failed run counts for nothing; the best wave 5.0. sheet-16x16: one sparse run at 1.2, best wave 6.0."""
     runs = [("a", "chain-20", "sparse", 3.0), ("b", "chain-20", "sparse", 3.4), ("c", "chain-20", "thermal", 0.2),
             ("d", "chain-20", "thermal", 0.4), ("e", "sheet-16x16", "sparse", 1.2), ("f", "chain-20", "sparse", 9.0)]
     pd.DataFrame({"run_id": [r[0] for r in runs], "shape": [r[1] for r in runs], "learner": [r[2] for r in runs],
-                  "status": ["done"] * 5 + ["failed"], "steps": 200}).to_parquet(directory / "runs.parquet")
-    steps = [(run_id, step, level if step > 100 else 1.0) for run_id, _, _, level in runs for step in range(201)]
+                  "status": ["done"] * 5 + ["failed"], "steps": 300}).to_parquet(directory / "runs.parquet")
+    steps = [(run_id, step, level if step > 100 else 1.0) for run_id, _, _, level in runs for step in range(301)]
     pd.DataFrame(steps, columns=["run_id", "step", "ubar_true"]).to_parquet(directory / "steps.parquet")
     pd.DataFrame({"shape": ["chain-20", "sheet-16x16"], "wave": [5.0, 6.0]}).to_csv(directory / "waves.csv",
                                                                                      index=False)
@@ -38,10 +38,11 @@ def test_levels_are_the_last_100_steps_against_the_best_wave(tmp_path):
     sparse = rows.loc[("chain-20", "sparse")]
     assert sparse.runs == 2 and np.isclose(sparse.level, 3.2) and np.isclose(sparse.share, 0.64)
     assert np.isclose(sparse.se, np.std([3.0, 3.4], ddof=1) / 2 ** 0.5)
-    lines = script.table(rows.reset_index(), 200)
-    assert lines[0].startswith("| assembly | learner | runs | true Ubar, steps 101-200")
-    assert "| chain-20 | sparse | 2 | +3.20 +- 0.20 | +5.00 | 0.64 +- 0.04 | 0.5: met |" in lines
-    assert "| chain-20 | thermal | 2 | +0.30 +- 0.10 | +5.00 | 0.06 +- 0.02 | 0.5: not met |" in lines
+    lines = script.table(rows.reset_index(), 300)
+    assert lines[0].startswith("| assembly | learner | runs | true Ubar, steps 201-300 (mm/cycle, +- SE) | its rise "
+                               "from steps 101-200")
+    assert "| chain-20 | sparse | 2 | +3.20 +- 0.20 | +0.00 +- 0.00 | +5.00 | 0.64 +- 0.04 | 0.5: met |" in lines
+    assert "| chain-20 | thermal | 2 | +0.30 +- 0.10 | +0.00 +- 0.00 | +5.00 | 0.06 +- 0.02 | 0.5: not met |" in lines
     assert any(line.startswith("| sheet-16x16 | sparse | 1 | +1.20") and line.endswith("| 0.3: not met |")
                for line in lines)
 
