@@ -61,14 +61,14 @@ def _table(results: Path, name: str, columns: list[str] | None = None) -> pd.Dat
 
 def gains(results: Path) -> pd.DataFrame:
     """Per condition: its runs' mean gain (final true Ubar less the true Ubar of START_STEP, mm/cycle), the gain's
-    standard error (``gain``, ``gain_se``) and the physics backends its runs recorded (``physics``)."""
+    standard error (``gain``, ``gain_se``) and the physics backends its runs recorded (``backends``)."""
     runs = _table(results, "runs.parquet", ["run_id", "condition_id", "status", "final_ubar_true", "backend"])
     first = _table(results, "steps.parquet", ["run_id", "step", "ubar_true"]).query(f"step == {START_STEP}")
     runs = runs[runs.status == "done"].merge(first[["run_id", "ubar_true"]], on="run_id")
     runs["gain"] = runs.final_ubar_true - runs.ubar_true
     grouped = runs.groupby("condition_id")
     return pd.DataFrame({"gain": grouped.gain.mean(), "gain_se": grouped.gain.std() / grouped.gain.count() ** 0.5,
-                         "physics": grouped.backend.agg(lambda b: ", ".join(sorted(set(b.dropna())))),
+                         "backends": grouped.backend.agg(lambda b: ", ".join(sorted(set(b.dropna())))),
                          }).reset_index()
 
 
@@ -117,7 +117,7 @@ def table(metrics: pd.DataFrame) -> list[str]:
              "| reaching it |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in metrics.itertuples():
         shown = row.learned and not math.isnan(row.reached_fraction)  # steps to a level below the start say nothing
-        lines.append(f"| {row.assembly} | {row.n_units} | {row.physics} | {row.learner} | {row.runs} | {row.level:+.2f}"
+        lines.append(f"| {row.assembly} | {row.n_units} | {row.backends} | {row.learner} | {row.runs} | {row.level:+.2f}"
                      f"{'' if row.plateau else ' (final Ubar: no plateau)'} | {_ratio(row.se, row.level):.0%} | "
                      f"{_signed(row.wave)} | {_signed(row.of_wave)} | "
                      f"{row.gain:+.2f} +- {row.gain_se:.2f} | {'yes' if row.learned else 'no'} | "
