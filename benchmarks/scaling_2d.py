@@ -117,8 +117,9 @@ def table(metrics: pd.DataFrame) -> list[str]:
              "| reaching it |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in metrics.itertuples():
         shown = row.learned and not math.isnan(row.reached_fraction)  # steps to a level below the start say nothing
-        lines.append(f"| {row.assembly} | {row.n_units} | {row.backends} | {row.learner} | {row.runs} | {row.level:+.2f}"
-                     f"{'' if row.plateau else ' (final Ubar: no plateau)'} | {_ratio(row.se, row.level):.0%} | "
+        lines.append(f"| {row.assembly} | {row.n_units} | {row.backends} | {row.learner} | {row.runs} | "
+                     f"{row.level:+.2f}{'' if row.plateau else ' (final Ubar: no plateau)'} | "
+                     f"{_ratio(row.se, row.level):.0%} | "
                      f"{_signed(row.wave)} | {_signed(row.of_wave)} | "
                      f"{row.gain:+.2f} +- {row.gain_se:.2f} | {'yes' if row.learned else 'no'} | "
                      f"{_steps(row.steps_to_threshold, row.steps_to_threshold_std) if shown else '-'} | "
