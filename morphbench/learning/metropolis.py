@@ -60,13 +60,15 @@ class MetropolisLearner(Learner):
     def propose(self) -> float:
         if self._trial is not None:
             raise RuntimeError("propose() called twice without update() in between")
-        if self.memory is None:
-            # 'measure': the first step measures the initial phase itself, so no eps is drawn
-            self._trial = self.phase
-        else:
-            eps = float(self.rng.uniform(-1.0, 1.0))
-            self._trial = wrap_phase(self.phase + eps * self.step_size)
+        self._trial = self._next_trial()
         return self._trial
+
+    def _next_trial(self) -> float:
+        """The phase to try next (its draws from the unit's stream, in order)."""
+        if self.memory is None:
+            return self.phase  # 'measure': the first step measures the initial phase itself, so no eps is drawn
+        eps = float(self.rng.uniform(-1.0, 1.0))
+        return wrap_phase(self.phase + eps * self.step_size)
 
     def update(self, velocity: float) -> bool:
         if self._trial is None:
@@ -76,6 +78,10 @@ class MetropolisLearner(Learner):
             # a NaN would compare as 'not worse' and poison the memory for good
             raise ValueError(f"measured velocity must be finite, got {velocity!r}")
         trial, self._trial = self._trial, None
+        return self._judge(trial, velocity)
+
+    def _judge(self, trial: float, velocity: float) -> bool:
+        """Keep ``trial`` or not, having measured ``velocity`` at it; whether it was accepted."""
         if self.memory is None:
             self.memory = velocity
             return True
@@ -148,20 +154,12 @@ class SparseLearner(ThermalLearner):
         super().__init__(params, rng)
         self.trying = False
 
-    def propose(self) -> float:
-        if self._trial is not None:
-            raise RuntimeError("propose() called twice without update() in between")
+    def _next_trial(self) -> float:
         self.trying = self.memory is not None and float(self.rng.uniform(0.0, 1.0)) < self.params.trial_probability
-        if self.trying or self.memory is None:
-            return super().propose()
-        self._trial = self.phase
-        return self._trial
+        return super()._next_trial() if self.trying else self.phase
 
-    def update(self, velocity: float) -> bool:
-        if self.trying or self.memory is None or self._trial is None:
-            return super().update(velocity)
-        velocity = float(velocity)
-        if not math.isfinite(velocity):
-            raise ValueError(f"measured velocity must be finite, got {velocity!r}")
-        self._trial, self.memory = None, velocity
+    def _judge(self, trial: float, velocity: float) -> bool:
+        if self.trying or self.memory is None:
+            return super()._judge(trial, velocity)
+        self.memory = velocity
         return False
