@@ -35,7 +35,8 @@ TARGETS = {"chain-20": 0.5, "sheet-16x16": 0.3}
 def levels(results: Path, waves: Path = WAVES) -> pd.DataFrame:
     """Per shape and learner: ``runs``, ``level`` (mean true Ubar over the last WINDOW steps, mm/cycle), ``se``,
     ``rise`` (the level less the mean over the WINDOW steps before, mm/cycle: still learning?) and ``rise_se``,
-    ``wave`` (the best wave, mm/cycle), ``share`` (level / wave) and its standard error ``share_se``."""
+    ``steps`` (the runs' learning steps), ``wave`` (the best wave, mm/cycle), ``share`` (level / wave) and its
+    standard error ``share_se``."""
     runs = _table(results, "runs.parquet", ["run_id", "shape", "learner", "status", "steps"])
     steps = _table(results, "steps.parquet", ["run_id", "step", "ubar_true"])
     runs = runs[runs.status == "done"]
@@ -46,7 +47,8 @@ def levels(results: Path, waves: Path = WAVES) -> pd.DataFrame:
     runs["rise"] = runs.level - runs.before
     level, rise = (runs.groupby(["shape", "learner"], sort=False)[column] for column in ("level", "rise"))
     table = pd.DataFrame({"runs": level.count(), "level": level.mean(), "se": level.std() / level.count() ** 0.5,
-                          "rise": rise.mean(), "rise_se": rise.std() / rise.count() ** 0.5}).reset_index()
+                          "rise": rise.mean(), "rise_se": rise.std() / rise.count() ** 0.5,
+                          "steps": runs.groupby(["shape", "learner"], sort=False).steps.max()}).reset_index()
     table = table.merge(best_waves(waves), on="shape", how="left")
     table["share"], table["share_se"] = table.level / table.wave, table.se / table.wave
     return table
@@ -68,7 +70,7 @@ def table(rows: pd.DataFrame, steps: int) -> list[str]:
 
 def _make(results: Path, waves: Path, doc: Path) -> tuple[list[str], list[str], int]:
     rows = levels(results, waves)
-    lines = table(rows, int(_table(results, "runs.parquet", ["steps"]).steps.max()))
+    lines = table(rows, int(rows.steps.max()))
     return lines, lines, int(rows.runs.sum())
 
 
