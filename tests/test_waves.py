@@ -69,3 +69,10 @@ def test_the_best_waves_file_is_what_the_scaling_study_reads(tmp_path):
     spec.loader.exec_module(scaling)
     waves = scaling.best_waves(tmp_path / "waves.csv")
     assert dict(zip(waves["shape"], waves["wave"])) == {"chain-2": 4.9, "sheet-32x32": 6.1}
+
+
+def test_the_assemblies_measured_are_the_scaling_study_s():
+    """What waves.py measures follows benchmarks/scaling-2d.toml: its chains, then its sheets, by size."""
+    names = [shape.name for _, shape in _script().assemblies()]
+    assert names == [f"chain-{n}" for n in (2, 3, 5, 7, 10, 15, 20)] + \
+        [f"sheet-{n}x{n}" for n in (2, 4, 8, 16, 32, 64, 100)]
