@@ -316,12 +316,22 @@ class LearnerParams:
     """the largest step size the 'adaptive' learner grows to (at least step_size_min; 0.5 already reaches every
     phase)."""
     trial_probability: float = param(0.25, Range(0, 1, low_inclusive=False, high_inclusive=True), later=True)
-    """p, of the 'sparse' learner: each learning step a unit tries a new phase with this probability, else keeps its
-    phase and takes the step's measurement as its memory; 1 tries every step (Thermal's rule, with that refresh)."""
+    """p0, of the 'sparse' learner: each learning step a unit tries a new phase with probability
+    p = max(trial_probability_min, p0 / (1 + t / trial_decay_steps)), t its own learning steps so far (0 at its
+    first), else keeps its phase and takes the step's measurement as its memory; p = 1 tries every step (Thermal's
+    rule, with that refresh)."""
+    trial_decay_steps: int = param(0, NATURAL, "steps", later=True)
+    """tau, of the 'sparse' learner: the unit's own steps over which its trial probability halves (p0 / (1 + t /
+    tau)): many units try at first, when any change helps, fewer once the gait is found and a trial mostly disturbs
+    the others. 0 keeps p = trial_probability. A unit counts only its own steps (its own clock, no global signal)."""
+    trial_probability_min: float = param(0.05, between(0, 1), later=True)
+    """the floor the decaying trial probability stops at (at most trial_probability), so that a unit never stops
+    trying: the assembly can still re-learn after its ground or its body changes (continuous learning)."""
 
 
 LEARNER_PRESETS: dict[str, LearnerParams] = {
-    "sparse": LearnerParams(step_size=0.05, temperature=0.01, cycles_per_step=1, discard_cycles=1),
+    "sparse": LearnerParams(step_size=0.05, temperature=0.01, cycles_per_step=1, discard_cycles=1,
+                            trial_probability=0.5, trial_decay_steps=100),
 }
 """The learners whose own settings differ from LearnerParams' defaults, by ``--learner`` name: what a run of that
 learner starts from (a file's or an option's fields on top). The sparse learner's: small steps, a cold temperature
@@ -335,12 +345,15 @@ def learner_defaults(name: str) -> LearnerParams:
 
 
 def check_learner(params: LearnerParams, source: str, prefix: str = "") -> LearnerParams:
-    """``params`` if every field is allowed and the adaptive learner's step sizes are ordered, else ConfigError
-    naming the first bad key (``prefix`` + field)."""
+    """``params`` if every field is allowed and the adaptive learner's step sizes and the sparse learner's trial
+    probabilities are ordered, else ConfigError naming the first bad key (``prefix`` + field)."""
     check_params(params, source, prefix)
     if params.step_size_min > params.step_size_max:
         raise ConfigError(source, f"{prefix}step_size_max", f"a step size >= step_size_min "
                           f"({params.step_size_min:g} cycles)", params.step_size_max)
+    if params.trial_decay_steps and params.trial_probability_min > params.trial_probability:
+        raise ConfigError(source, f"{prefix}trial_probability_min", f"a probability <= trial_probability "
+                          f"({params.trial_probability:g})", params.trial_probability_min)
     return params
 
 

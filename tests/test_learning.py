@@ -23,7 +23,7 @@ from morphbench.learning import (
 )
 from morphbench.learning import plugins
 from morphbench.learning.metropolis import MetropolisLearner
-from morphbench.params import LearnerParams
+from morphbench.params import LearnerParams, check_learner, learner_defaults
 
 from conftest import SHAPES_DIR
 
@@ -492,7 +492,8 @@ def test_the_arrays_of_a_built_in_learner_step_as_its_objects(name, initial_memo
     from morphbench.learning.arrays import BLOCK, UnitArrays
     from morphbench.learning.plugins import Decentralized, make_controller, make_learners
 
-    params = LearnerParams(initial_memory=initial_memory, temperature=temperature, step_size=0.3)
+    params = LearnerParams(initial_memory=initial_memory, temperature=temperature, step_size=0.3,
+                           trial_probability=0.9, trial_decay_steps=30)  # sparse's own step counts, dead units'
     cls, n = load_learner_class(name), 5
     arrays, objects = make_controller(cls, params, 7, n), Decentralized(make_learners(cls, params, 7, n))
     assert isinstance(arrays, UnitArrays)
@@ -516,7 +517,7 @@ def test_a_run_s_view_of_a_joint_controller_is_that_run_s_own_controller(rule):
     from morphbench.learning.arrays import RunView
     from morphbench.learning.plugins import make_joint_controller
 
-    params, n, seeds = LearnerParams(adapt_window=3), 4, [11, 12, 13]
+    params, n, seeds = LearnerParams(adapt_window=3, trial_probability=0.9, trial_decay_steps=4), 4, [11, 12, 13]
     cls = load_learner_class(rule)
     own = make_controller(cls, params, seeds[1], n)
     view = RunView(make_joint_controller(cls, params, seeds, n), 1, n)
@@ -557,6 +558,28 @@ def test_a_sparse_unit_tries_on_a_fraction_of_its_steps_and_refreshes_its_memory
     assert abs(tries - 200) < 4 * (1000 * 0.2 * 0.8) ** 0.5
 
 
+def test_a_sparse_unit_s_trial_probability_falls_with_its_own_steps_to_its_floor():
+    """p = max(p_min, p0 / (1 + t / tau)) at the unit's own step t (its first, measuring, step is t = 0): the
+    fraction of 2,000 units that try at a step follows it (binomial bounds); no decay keeps p0."""
+    from morphbench.learning.arrays import UnitArrays
+    from morphbench.learning.metropolis import trial_probability
+
+    params = LearnerParams(trial_probability=0.8, trial_decay_steps=10, trial_probability_min=0.1)
+    assert trial_probability(params, 0) == 0.8 and trial_probability(params, 10) == pytest.approx(0.4)
+    assert trial_probability(params, 1000) == 0.1 and trial_probability(LearnerParams(), 1000) == 0.25
+    n = 2000
+    arrays = UnitArrays("sparse", params, [np.random.default_rng([7, u]) for u in range(n)], "sparse")
+    alive = np.ones(n, bool)
+    for step in range(120):
+        arrays.propose(step, alive)
+        if step:
+            p = max(0.1, 0.8 / (1 + step / 10))
+            assert abs(arrays.trying.mean() - p) < 4 * (p * (1 - p) / n) ** 0.5
+        arrays.update(step, np.zeros(n), alive)
+    with pytest.raises(ConfigError, match="trial_probability_min"):
+        check_learner(LearnerParams(trial_probability=0.1, trial_decay_steps=5, trial_probability_min=0.2), "f")
+
+
 @pytest.mark.parametrize("name", ["thermal", "flaky", "averaged", "adaptive", "sparse", "random"])
 def test_a_unit_s_learner_cannot_see_another_unit_s_measurements(name):
     """No communication: whatever the other units measure, a unit's proposals, acceptances, kept phases and memory
@@ -564,7 +587,8 @@ def test_a_unit_s_learner_cannot_see_another_unit_s_measurements(name):
     from morphbench.learning.plugins import make_controller
 
     cls, n, rng = load_learner_class(name), 4, np.random.default_rng(5)
-    one, other = make_controller(cls, LearnerParams(), 9, n), make_controller(cls, LearnerParams(), 9, n)
+    params = learner_defaults(name)  # each learner's own settings (sparse: its decaying trial probability)
+    one, other = make_controller(cls, params, 9, n), make_controller(cls, params, 9, n)
     alive = np.ones(n, bool)
     for step in range(200):
         a, b = one.propose(step, alive), other.propose(step, alive)

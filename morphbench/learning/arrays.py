@@ -17,7 +17,7 @@ import numpy as np
 
 from morphbench.errors import PluginError
 from morphbench.learning.base import Controller, initial_memory, wrap_phases
-from morphbench.learning.metropolis import acceptance_probability, adapted_step_size, averaged_memory
+from morphbench.learning.metropolis import acceptance_probability, adapted_step_size, averaged_memory, trial_probability
 from morphbench.params import LearnerParams, check_learner
 
 BLOCK = 64
@@ -84,6 +84,7 @@ class UnitArrays(Controller):
         self.window_trials = np.zeros(len(rngs), dtype=int)  # the adaptive rule's current window, per unit
         self.window_accepted = np.zeros(len(rngs), dtype=int)
         self.trying = np.ones(len(rngs), dtype=bool)  # the sparse rule's units trying a phase this step
+        self.own_steps = np.zeros(len(rngs), dtype=int)  # the sparse rule's learning steps per unit, by its clock
 
     def initial(self) -> np.ndarray:
         return self.phase.copy()
@@ -98,7 +99,9 @@ class UnitArrays(Controller):
         else:
             asking = np.flatnonzero(due & self.measured)
             if self.rule == "sparse":  # whether to try, drawn before the trial's own uniform
-                self.trying[asking] = self.draws.next(asking) < self.params.trial_probability
+                p = trial_probability(self.params, self.own_steps[asking])
+                self.own_steps[due] += 1
+                self.trying[asking] = self.draws.next(asking) < p
                 asking = asking[self.trying[asking]]
             eps = -1.0 + 2.0 * self.draws.next(asking)
             trial[asking] = wrap_phases(self.phase[asking] + eps * self.step_size[asking])

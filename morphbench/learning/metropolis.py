@@ -35,6 +35,15 @@ def averaged_memory(memory, velocity, weight: float):
     return np.where(finite, (1.0 - weight) * np.where(finite, memory, 0.0) + weight * velocity, velocity)
 
 
+def trial_probability(params: LearnerParams, own_steps):
+    """The sparse learner's probability of trying at a unit's step, having taken ``own_steps`` steps of its own
+    (a count, or an array of them): trial_probability, falling as p0 / (1 + t / tau) to its floor if it decays."""
+    if not params.trial_decay_steps:
+        return params.trial_probability
+    decayed = params.trial_probability / (1.0 + np.asarray(own_steps) / params.trial_decay_steps)
+    return np.maximum(params.trial_probability_min, decayed)
+
+
 def adapted_step_size(step_size, accepted: int | np.ndarray, params: LearnerParams):
     """The adaptive learner's step size after a window of ``params.adapt_window`` trials of which ``accepted`` were
     accepted, of numbers or arrays: times exp(c) above the target rate, exp(-c) below it, clipped to [step_size_min,
@@ -144,18 +153,23 @@ class AdaptiveLearner(ThermalLearner):
 
 
 class SparseLearner(ThermalLearner):
-    """Thermal that tries a new phase only with probability ``trial_probability`` per step, so that fewer units of an
-    assembly change at once; on the other steps it keeps its phase and its memory becomes the step's measurement,
-    what its kept phase gives among the others' current phases (so a later trial is judged against the present, not
-    against a reading taken before the others moved). Such a step tried nothing and accepted nothing (False). The
-    uniform that decides whether to try is drawn before the trial's own, and not on the first step of 'measure'."""
+    """Thermal that tries a new phase only with a probability per step (``trial_probability``, falling with the
+    unit's own steps if ``trial_decay_steps`` is set: ``trial_probability()``), so that fewer units of an assembly
+    change at once; on the other steps it keeps its phase and its memory becomes the step's measurement, what its
+    kept phase gives among the others' current phases (so a later trial is judged against the present, not against a
+    reading taken before the others moved). Such a step tried nothing and accepted nothing (False). The uniform that
+    decides whether to try is drawn before the trial's own, and not on the first step of 'measure'."""
 
     def __init__(self, params: LearnerParams, rng: np.random.Generator):
         super().__init__(params, rng)
         self.trying = False
+        self.own_steps = 0
+        """the learning steps this unit has taken (its first, measuring, step counts), by its own clock."""
 
     def _next_trial(self) -> float:
-        self.trying = self.memory is not None and float(self.rng.uniform(0.0, 1.0)) < self.params.trial_probability
+        p = trial_probability(self.params, self.own_steps)
+        self.own_steps += 1
+        self.trying = self.memory is not None and float(self.rng.uniform(0.0, 1.0)) < p
         return super()._next_trial() if self.trying else self.phase
 
     def _judge(self, trial: float, velocity: float) -> bool:
