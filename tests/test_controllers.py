@@ -57,6 +57,29 @@ def test_each_controller_runs_reproducibly_from_its_seed_alone(name):
     assert (kept[improved] == tried[improved]).all() and (kept[1:][~improved[1:]] == kept[:-1][~improved[1:]]).all()
 
 
+def test_cmaes_beyond_its_full_units_adapts_a_diagonal_covariance():
+    """A full covariance of 10,000 units would be 800 MB and an O(n^3) eigendecomposition per update: beyond
+    CMA_FULL_UNITS the covariance is diagonal (no n x n matrix is built), up to it full as before."""
+    import cma
+
+    from morphbench.learning.controllers import CMA_FULL_UNITS, CMAES, controller_rng
+    from morphbench.params import LearnerParams
+
+    assert CMA_FULL_UNITS == 100
+    full = CMAES(LearnerParams(), controller_rng(0), CMA_FULL_UNITS)
+    assert isinstance(full.es.sm, cma.sampler.GaussFullSampler) and not full.es.opts["CMA_diagonal"]
+    n = 150
+    controller = CMAES(LearnerParams(), controller_rng(0), n)
+    assert controller.es.opts["CMA_diagonal"] is True and not isinstance(controller.es.sm, cma.sampler.GaussFullSampler)
+    alive = np.ones(n, dtype=bool)
+    rng = np.random.default_rng(1)
+    for step in range(2 * controller.es.popsize + 1):  # step 0 and two generations, each told
+        trial = controller.propose(step, alive)
+        assert trial.shape == (n,) and ((trial >= 0) & (trial < 1)).all()
+        controller.update(step, rng.normal(size=n), alive)
+    assert controller.es.countiter == 2 and np.shape(controller.es.sm.variances) == (n,)
+
+
 def test_random_search_tries_a_fresh_vector_and_the_hill_climber_a_step_from_the_kept_one():
     search = run(RunConfig(shape=CHAIN_3, learner="random-search", steps=30, seed=1, sensor=IDEAL)).units()
     climb = run(RunConfig(shape=CHAIN_3, learner="hill-climber", steps=30, seed=1, sensor=IDEAL)).units()

@@ -1,6 +1,7 @@
 """The standard task set and ``morphbench leaderboard``: the scoring on a stored fixture with known answers, the
 reference made by benchmarks/leaderboard.py and the command end to end on a two-task set (2 seeds of 6 steps), a
-plug-in scored on its own tasks only, and bad input refused in one line with exit status 2."""
+plug-in scored on its own tasks only or a group's, the scale figure, version 1 scored by name against its shipped
+reference, and bad input refused in one line with exit status 2."""
 
 from __future__ import annotations
 
@@ -15,7 +16,8 @@ import pandas as pd
 import pytest
 
 from morphbench.bench import scores as S
-from morphbench.bench.leaderboard import learner_suite, reference_path, standard_suite
+from morphbench.bench.leaderboard import (conditions, learner_suite, reference_path, scale_points, scale_sentence,
+                                          shipped_sets, standard_suite, suite_file, task_names, task_sizes)
 from morphbench.learning import plugins
 from morphbench.bench.suite import load_suite
 from morphbench.errors import ConfigError
@@ -26,6 +28,7 @@ FIXTURE = ROOT / "tests" / "data" / "leaderboard-reference.csv"
 TWO_TASKS = f"""
 name = "two-v1"
 description = "Two tasks for the tests."
+groups = {{scale = ["c2", "c3-noise"]}}
 [defaults]
 learner = {{name = ["thermal", "flaky", "random"]}}
 seeds = 2
@@ -109,25 +112,106 @@ def test_markdown_shows_every_task_and_marks_the_stored_learners():
     assert "| 2 | cmaes (centralized) | 0.167 +- 0.030 | 2 |" in S.markdown(scores, renamed, S.compared_tasks(scores))
 
 
+# --- the scale figure's data and a centralized baseline's comparison, on the fixture ----------------------------------
+
+
+def test_the_scale_table_gives_each_learner_s_score_against_n_by_family():
+    reference = pd.read_csv(FIXTURE).drop(columns="suite")
+    reference = reference.assign(source=reference.source.replace("random", "cmaes"))
+    scores = S.task_scores(reference, S.best_known(reference))
+    sizes = pd.DataFrame({"task": ["b", "a", "c"], "family": ["chain", "chain", "sheet"], "n_units": [20, 2, 256]})
+    table = S.scale_table(scores, sizes)
+    assert list(table.columns) == ["family", "n_units", "task", "learner", "centralized", "score", "score_se", "low",
+                                   "high"]
+    # by family in the sizes' order, then N, learners in the scores' order; thermal is not scored on c (1 of its 4
+    # runs finished) and broken nowhere: neither is drawn there
+    assert list(zip(table.family, table.n_units, table.task, table.learner)) == [
+        ("chain", 2, "a", "cmaes"), ("chain", 2, "a", "thermal"), ("chain", 20, "b", "cmaes"),
+        ("chain", 20, "b", "thermal"), ("sheet", 256, "c", "cmaes")]
+    row = table.set_index(["task", "learner"])
+    assert row.score["a", "thermal"] == pytest.approx(0.5) and row.low["a", "thermal"] == pytest.approx(0.3)
+    assert row.high["a", "thermal"] == pytest.approx(0.7) and row.score_se["b", "cmaes"] == pytest.approx(0.2 / 6)
+    assert list(row.centralized) == [True, False, True, False, True]
+    assert S.scale_table(scores, sizes.iloc[:0]).empty
+    assert scale_sentence(table) == (
+        "Each learner's score on the tasks of the group `scale` against their number of units N (log scale): chains "
+        "of 2 to 20 units (left); sheets of 256 units (right); the mean over the seeds +- 2 standard errors, 1 the "
+        "best gait known for each task.")
+
+
+def test_a_centralized_baseline_does_not_narrow_the_comparison():
+    """cmaes cannot run units on clocks of their own (its runs of the clocks tasks fail): the others are still
+    compared on every task, and it is averaged over those it is scored on."""
+    reference = pd.read_csv(FIXTURE).drop(columns="suite")
+    reference = reference.assign(source=reference.source.replace("thermal", "cmaes"))  # not scored on c
+    scores = S.task_scores(reference, S.best_known(reference))
+    assert S.common_tasks(scores) == ["a", "b", "c"]  # random's: cmaes, scored on a and b only, does not narrow them
+    ranking = S.overall(scores).set_index("learner")
+    assert ranking.tasks.to_dict() == {"cmaes": 2, "random": 3}
+    assert ranking.score["cmaes"] == pytest.approx(0.75)
+    assert ranking.score["random"] == pytest.approx((0.0 + 1 / 3 + 0.25) / 3)
+    text = S.markdown(scores, reference, S.compared_tasks(scores))
+    assert "Mean task score over all 3 tasks" in text and "A centralized baseline is averaged over those" in text
+    only = S.task_scores(reference[reference.source == "cmaes"], S.best_known(reference))
+    assert S.common_tasks(only) == ["a", "b"]  # a centralized learner alone is compared on its own tasks
+
+
 # --- the standard set -------------------------------------------------------------------------------------------------
 
 
-def test_the_standard_set_reads_and_each_task_is_one_condition_per_learner():
+def test_the_default_set_is_version_2_and_a_plugin_runs_its_tasks_with_the_same_ids():
     suite = load_suite(standard_suite())
-    assert standard_suite() == BENCHMARKS_DIR / "standard.toml" and suite.name == "standard-v1"
-    assert len(suite.experiments) == 16
+    assert standard_suite() == BENCHMARKS_DIR / "standard-v2.toml" and suite.name == "standard-v2"
+    assert len(suite.experiments) == 21 and "scale" in suite.groups
     for experiment in suite.experiments:
         learners = {suite.runs[r].condition["learner"] for r in experiment.run_ids}
-        built_ins = {"thermal", "flaky", "averaged", "adaptive", "random"}
-        assert learners == built_ins and len(experiment.condition_ids) == len(built_ins), experiment.name
-    backends = {suite.runs[r].config.shape.source.rsplit("/", 1)[-1] for r in suite.runs}
-    assert {"chain-2.toml", "chain-20.toml", "grid-2x2.toml", "ring-8.toml", "t-5.toml",
-            "stack-2x2x2.toml"} <= backends
-    plug = learner_suite(standard_suite(), ["random"], ["chain-2", "ring-8"])
-    assert [e.name for e in plug.experiments] == ["chain-2", "ring-8"] and not plug.scans
+        stored = {"thermal", "flaky", "sparse", "random", "cmaes"}
+        assert learners == stored and len(experiment.condition_ids) == len(stored), experiment.name
+    shapes = {suite.runs[r].config.shape.source.rsplit("/", 1)[-1] for r in suite.runs}
+    assert {"chain-2.toml", "chain-20.toml", "chain-100.toml", "grid-2x2.toml", "ring-8.toml", "t-5.toml",
+            "stack-2x2x2.toml", "sheet-100x100.toml"} <= shapes
+    plug = learner_suite(standard_suite(), ["random"], ["chain-2", "ring-8"])  # its groups left out with its tasks
+    assert [e.name for e in plug.experiments] == ["chain-2", "ring-8"] and not plug.scans and not plug.groups
     same = {r for e in suite.experiments if e.name in ("chain-2", "ring-8") for r in e.run_ids
             if suite.runs[r].condition["learner"] == "random"}
     assert set(plug.runs) == same  # the same runs, the same ids: stored results are found again
+    sizes = task_sizes(suite, suite.groups["scale"])
+    assert list(zip(sizes.task, sizes.family, sizes.n_units)) == [
+        ("chain-2", "chain", 2), ("chain-7", "chain", 7), ("chain-20", "chain", 20), ("chain-50", "chain", 50),
+        ("chain-100", "chain", 100), ("sheet-16x16", "sheet", 256), ("sheet-32x32", "sheet", 1024),
+        ("sheet-100x100", "sheet", 10000)]
+    assert task_names(["chain-3", "scale", "chain-7"], suite, "v2") == ["chain-3", *suite.groups["scale"]]
+
+
+def test_version_1_is_found_by_name_and_its_shipped_reference_still_reads(capsys, tmp_path):
+    path = suite_file("standard-v1")
+    assert path == BENCHMARKS_DIR / "standard-v1.toml" == suite_file("standard-v1.toml")
+    assert suite_file(None) == standard_suite() and suite_file(str(path)) == path
+    assert {"standard-v1", "standard-v2"} <= set(shipped_sets())
+    suite = load_suite(path)
+    assert suite.name == "standard-v1" and len(suite.experiments) == 16 and not suite.groups
+    reference = S.read_reference(reference_path(path), suite)  # its scans' ids, its built-ins' conditions
+    assert reference_path(path) == BENCHMARKS_DIR / "standard-v1-reference.csv"
+    S.check_conditions(reference, conditions(suite), str(reference_path(path)))
+    assert set(reference[reference.kind == "learner"].source) == {"thermal", "flaky", "averaged", "adaptive",
+                                                                  "random"}
+    out = tmp_path / "v1"
+    code, stdout, stderr = run_cli(capsys, "leaderboard", "--suite", "standard-v1", "--out", str(out), "--quiet")
+    assert code == 0, stderr
+    assert stdout.count(" over 16 tasks") == 5 and "1. adaptive: 0.410 +- 0.012 over 16 tasks" in stdout
+    assert sorted(p.name for p in out.iterdir()) == ["leaderboard.html", "leaderboard.md"]  # no group scale: no figure
+
+
+def test_without_its_reference_the_default_set_says_how_to_make_it(capsys, tmp_path):
+    """Until benchmarks/standard-v2-reference.csv is made (python benchmarks/leaderboard.py), the leaderboard's
+    default set is refused in one line that says so; once it is there, the stored learners are ranked."""
+    if reference_path(standard_suite()).is_file():
+        code, stdout, stderr = run_cli(capsys, "leaderboard", "--out", str(tmp_path / "v2"), "--quiet")
+        assert code == 0 and stdout.count(" over ") == 5, stderr
+        return
+    message = _refused(capsys, "--out", str(tmp_path / "v2"))
+    assert "standard-v2-reference.csv: (file): expected the reference table of standard-v2" in message
+    assert "python benchmarks/leaderboard.py" in message
 
 
 # --- the reference and the command, end to end ------------------------------------------------------------------------
@@ -175,6 +259,9 @@ def test_the_reference_holds_the_scans_and_the_builtins(two_tasks):
     assert "## The tasks (two-v1)" in text and "| c2 | chain-2 | quasistatic | 2 | 6 | scan c2 |" in text
     assert "| c3-noise | chain-3 | quasistatic | 2 | 6 | the learners only |" in text
     assert "13 jobs run" in text  # 12 runs, 1 scan part
+    assert "## Scale" in text and "![score against the number of units](media/leaderboard-scale.png)" in text
+    assert "chains of 2 to 3 units (alone)" in text
+    assert (doc.parent / "media" / "leaderboard-scale.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_a_plugin_is_run_and_scored_beside_the_stored_builtins(two_tasks, capsys):
@@ -261,8 +348,30 @@ def test_the_stored_builtins_alone_run_nothing(two_tasks, capsys):
     root, suite, _ = two_tasks
     out = root / "builtins"
     code, stdout, _ = run_cli(capsys, "leaderboard", "--suite", str(suite), "--out", str(out), "--quiet")
-    assert code == 0 and sorted(p.name for p in out.iterdir()) == ["leaderboard.html", "leaderboard.md"]
+    assert code == 0 and sorted(p.name for p in out.iterdir()) == ["leaderboard-scale.png", "leaderboard.html",
+                                                                     "leaderboard.md"]
     assert stdout.count(" over 2 tasks") == 3
+    assert run_cli(capsys, "leaderboard", "--suite", str(suite), "--out", str(out), "--quiet")[0] == 0  # its own again
+
+
+def test_a_group_names_its_tasks_and_the_scale_figure_shows_them(two_tasks, capsys):
+    root, suite, _ = two_tasks
+    out = root / "group"
+    code, stdout, stderr = run_cli(capsys, "leaderboard", "greedy_learner:Greedy", "--tasks", "scale", "--suite",
+                                   str(suite), "--out", str(out), "--workers", "1", "--quiet")
+    assert code == 0, stderr
+    assert set(pd.read_parquet(out / "runs.parquet").experiments.astype(str)) == {"c2", "c3-noise"}
+    assert stdout.count(" over 2 tasks") == 4 and f"the scale figure: {out / 'leaderboard-scale.png'}" in stdout
+    assert (out / "leaderboard-scale.png").read_bytes()[:4] == b"\x89PNG"
+    text = (out / "leaderboard.md").read_text()
+    assert "## Scale" in text and "![score against the number of units](leaderboard-scale.png)" in text
+    assert "data:image/png;base64," in (out / "leaderboard.html").read_text()  # one page that needs no other file
+    full = load_suite(suite)
+    reference = pd.read_csv(reference_path(suite)).drop(columns="suite")
+    scores = S.task_scores(reference, S.best_known(reference))
+    points = scale_points(full, scores)
+    assert list(dict.fromkeys(points.task)) == ["c2", "c3-noise"] and set(points.n_units) == {2, 3}
+    assert list(scale_points(full, scores, ["c2"]).task.unique()) == ["c2"]
 
 
 # --- bad input --------------------------------------------------------------------------------------------------------
@@ -280,7 +389,10 @@ def test_bad_learners_tasks_and_directories_are_one_line(two_tasks, capsys, tmp_
     where = ["--suite", str(suite), "--out", str(tmp_path / "out")]
     assert "--learner: nosuch: expected" in _refused(capsys, "nosuch", *where)
     assert "no_such_module_xyz:Cls" in _refused(capsys, "no_such_module_xyz:Cls", *where)
-    assert "--tasks: nosuch: expected a task of" in _refused(capsys, "random", "--tasks", "nosuch", *where)
+    message = _refused(capsys, "random", "--tasks", "nosuch", *where)
+    assert "--tasks: nosuch: expected a task of" in message and "(c2, c3-noise) or one of its groups (scale)" in message
+    assert "--suite: nosuch: expected a suite file or the name of a task set shipped with morphbench (" \
+        f"{', '.join(shipped_sets())})" in _refused(capsys, "--suite", "nosuch", "--out", str(tmp_path / "out"))
     (tmp_path / "mine").mkdir()
     (tmp_path / "mine" / "notes.txt").write_text("keep")
     assert "a new directory or a leaderboard's" in _refused(capsys, "--suite", str(suite), "--out",

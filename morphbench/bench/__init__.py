@@ -20,7 +20,8 @@
     html.py       report.html: report.md as one self-contained page (figures, videos inline), suite file, versions
     videos.py     one short video per experiment, replayed off-screen from a stored run (DIR/videos/)
     scores.py     the standard task set's scores: task score, standard errors, overall; its reference table
-    leaderboard.py `morphbench leaderboard`: stored built-ins, other learners run, leaderboard.md and .html
+    leaderboard.py `morphbench leaderboard`: stored built-ins, other learners run, leaderboard.md and .html, the
+                  scale figure (score against the number of units)
     cli.py        the `bench`, `report`, `check` and `leaderboard` subcommands (add_bench_commands)
 
 The names below are imported on first use (``morphbench.lazy``): the metrics, figures, claims and the report need no

@@ -75,19 +75,22 @@ def add_bench_commands(subparsers) -> None:
 
     board = subparsers.add_parser(
         "leaderboard", help="score learners on the standard task set against the stored built-ins",
-        description="Run the standard task set (benchmarks/standard.toml) for the named learners into DIR (resumed: "
-                    "runs it holds are not run again) and score each task's final true Ubar over the best gait "
-                    "known for it; the built-ins' results are read from the stored reference table, not run. "
-                    "Writes DIR/leaderboard.md and DIR/leaderboard.html (docs/leaderboard.md).")
+        description="Run the standard task set (benchmarks/standard-v2.toml) for the named learners into DIR "
+                    "(resumed: runs it holds are not run again) and score each task's final true Ubar over the best "
+                    "gait known for it; the built-ins' results are read from the stored reference table, not run. "
+                    "Writes DIR/leaderboard.md and DIR/leaderboard.html, and DIR/leaderboard-scale.png (score "
+                    "against the number of units) when the tasks include some of the group 'scale' "
+                    "(docs/leaderboard.md).")
     board.add_argument("learners", nargs="*", metavar="LEARNER",
                        help=f"{LEARNER_HELP}; none: the stored built-ins alone")
     board.add_argument("--out", metavar="DIR",
                        help="results directory of the learners' runs and the tables (default results/leaderboard)")
     board.add_argument("--tasks", nargs="+", metavar="TASK",
-                       help="run the learners on these tasks only; every learner is then compared overall on them")
-    board.add_argument("--suite", metavar="FILE",
-                       help="another task set, its reference table beside it as STEM-reference.csv (default: the "
-                            "standard set)")
+                       help="run the learners on these tasks only, or on a group's (scale: chains of 2 to 100 units "
+                            "and sheets to 10,000); every learner is then compared overall on them")
+    board.add_argument("--suite", metavar="FILE|NAME",
+                       help="another task set, its reference table beside it as STEM-reference.csv, or a shipped "
+                            "set's name (standard-v1; default: the standard set, standard-v2)")
     board.add_argument("--workers", metavar="N", type=_positive_int, default=None,
                        help="local worker processes (default: the cores available)")
     board.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -220,7 +223,8 @@ def cmd_leaderboard(args) -> int:
               f"task{'s' if row.tasks != 1 else ''}")
     for name in sorted(set(board.scores.learner) - set(board.ranking.learner)):
         print(f"-. {name}: not scored (no task where 2 of its runs finished)")
-    print(f"leaderboard in {board.markdown} and {board.html}")
+    figure = f" (the scale figure: {board.figure})" if board.figure is not None else ""
+    print(f"leaderboard in {board.markdown} and {board.html}{figure}")
     return EXIT_FAILED_RUNS if board.failures else 0
 
 

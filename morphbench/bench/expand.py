@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from morphbench import params as P
 from morphbench.bench.aliases import rename
 from morphbench.bench.cost import run_cost
@@ -22,14 +24,15 @@ from morphbench.errors import ConfigError
 from morphbench.experiment.config import physics_from_table, run_config_from_table
 from morphbench.experiment.events import Event, parse_event
 from morphbench.experiment.run import RunConfig
-from morphbench.experiment.scan import DEFAULT_CYCLES, DEFAULT_DISCARD, check_scan_size, scan_phases
+from morphbench.experiment.scan import (DEFAULT_CYCLES, DEFAULT_DISCARD, check_scan_size, scan_phases, wave_lags,
+                                       wave_phases)
 from morphbench.files import is_file
 from morphbench.readers import check_keys, distinct, is_tables, params_from_table
 from morphbench.rules import check_plan_size, check_rule
 from morphbench.shapes import Shape, load_shape
 
-SCAN_KEYS = ("name", "shape", "resolution", "samples", "cycles", "discard", "seed", "physics", "environment",
-             "damage")
+SCAN_KEYS = ("name", "shape", "resolution", "samples", "waves", "cycles", "discard", "seed", "physics",
+             "environment", "damage")
 AXIS_ORDER = ("shape", "learner", "sensor", "environment", "steps", "physics")
 """The matrix's axes, the first varying slowest: runs are listed in the order the first suites listed them."""
 
@@ -215,7 +218,15 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
     if shape.n_units < 2:
         raise ConfigError(src, f"{where}.shape", "a shape with at least 2 active units to scan phase differences",
                           table["shape"])
-    resolution = check_rule(P.COUNT, "", table.get("resolution", 20), src, f"{where}.resolution")
+    waves = None
+    if "waves" in table:
+        both = next((key for key in ("resolution", "samples") if key in table), None)
+        if both is not None:
+            raise ConfigError(src, f"{where}.waves", f"either waves or {both} in one scan (waves = N measures N "
+                                                     "travelling waves, resolution and samples a grid or random "
+                                                     "phases)", table["waves"])
+        waves = check_rule(P.COUNT, "", table["waves"], src, f"{where}.waves")
+    resolution = check_rule(P.COUNT, "", table.get("resolution", waves or 20), src, f"{where}.resolution")
     samples = table.get("samples")
     if samples is not None:
         samples = check_rule(P.COUNT, "", samples, src, f"{where}.samples")
@@ -237,23 +248,36 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
     damage = None
     if "damage" in table:
         damage = parse_event(table["damage"], src, f"{where}.damage", shape.n_units, len(shape.links), kind="damage")
-    default_name = f"{shape.name}-r{resolution}" + (f"-unit{damage.unit}-{damage.mode}" if damage else "")
+    kind = f"waves{waves}" if waves else f"r{resolution}"
+    default_name = f"{shape.name}-{kind}" + (f"-unit{damage.unit}-{damage.mode}" if damage else "")
     name = check_name(table.get("name", default_name), src, f"{where}.name")
     sampled = shape.n_units > 3
-    check_scan_size(shape.n_units, resolution, samples, src, f"{where}.samples" if sampled and samples else
-                    f"{where}.resolution")
-    phases = scan_phases(shape.n_units, resolution, samples, seed)
+    if waves:
+        check_plan_size(waves, P.MAX_SCAN_POINTS, P.SCAN_POINT_BYTES, "scan points (waves)", src, f"{where}.waves",
+                        waves)
+        # unit 1 at phase 0, as in every scan (its points store dphi_i, unit i's phase minus unit 1's): a no-op where
+        # unit 1 is in the front column (chains, sheets, grids, stacks), elsewhere (a shuffled chain) each wave
+        # shifted by unit 1's phase, the same gait a moment later
+        phases = wave_phases(shape, wave_lags(waves))
+        phases = np.mod(phases - phases[:, :1], 1.0)
+    else:
+        check_scan_size(shape.n_units, resolution, samples, src, f"{where}.samples" if sampled and samples else
+                        f"{where}.resolution")
+        phases = scan_phases(shape.n_units, resolution, samples, seed)
     hashed = {"shape": shape_identity(shape), "resolution": resolution, "samples": samples if sampled else None,
               "seed": seed if sampled else None, "cycles": cycles, "discard": discard,
               "physics": identity(physics), "part_points": SCAN_PART_POINTS,
               "environment": identity(environment)}  # the default one keeps earlier scans' ids
     if damage is not None:  # a healthy scan keeps the id it had before scans could be damaged
         hashed["damage"] = {"unit": damage.unit, "mode": damage.mode}
+    if waves:  # only in a scan of waves: every other scan keeps the id it had before scans could be waves
+        hashed.update(resolution=None, samples=None, seed=None, waves=waves)
     scan_id = stable_hash(hashed)
     columns = {"scan": name, "shape": shape.name, "shape_id": shape_id(shape), "n_units": shape.n_units,
-               "resolution": resolution, "samples": len(phases), "cycles": cycles, "discard": discard, "seed": seed,
-               "physics": physics_label, "environment": _settings_label(environment_table),
-               "environment_id": environment_id(environment), "damage": damage.describe() if damage else "none"}
+               "resolution": resolution, "samples": len(phases), "waves": waves or 0, "cycles": cycles,
+               "discard": discard, "seed": seed, "physics": physics_label,
+               "environment": _settings_label(environment_table), "environment_id": environment_id(environment),
+               "damage": damage.describe() if damage else "none"}
     return ScanSpec(scan_id, name, shape, columns, physics, cycles, discard, phases, environment, damage)
 
 

@@ -11,7 +11,11 @@ one is left out; these functions draw, each into one PNG through ``plots.save_fi
 - ``scaling``: U_eq, steps to 0.8 U_eq and the fraction of runs that reach it against the number of units (4C, 4D);
 - ``landscapes``: 3-unit scans with the phase differences that runs tried drawn on them as trails (3C-F);
 - ``positions``: every unit's position along the track at the first and the last step, one row per run (4A);
-- ``events``: mean Ubar of each condition against the step with its events marked, and each piece's after a cut.
+- ``events``: mean Ubar of each condition against the step with its events marked, and each piece's after a cut;
+
+and one of the leaderboard (morphbench.bench.leaderboard, benchmarks/leaderboard.py):
+
+- ``leaderboard_scale``: each learner's task score against the number of units, one panel per kind of shape.
 """
 
 from __future__ import annotations
@@ -262,4 +266,39 @@ def events(name: str, conditions: list[tuple[str, pd.DataFrame, pd.DataFrame | N
         ax.legend(fontsize="x-small", loc="lower right")
     axes[0, 0].set_ylabel("Ubar (mm/cycle)")
     fig.suptitle(f"{name}: Ubar around its events")
+    return plots.save_figure(fig, path, dpi=DPI)
+
+
+def leaderboard_scale(points: pd.DataFrame, path: Path, title: str = "") -> Path:
+    """Each learner's score (mean +- 2 standard errors over the seeds) against the number of units N on a log axis,
+    one panel per ``family`` (chains, sheets) sharing the score axis: ``points`` as ``scores.scale_table`` makes it.
+    A centralized baseline is dashed (a reference for the per-unit learners); 1, the best gait known for each task,
+    and 0 are drawn across."""
+    families = list(dict.fromkeys(points.family))
+    learners = list(dict.fromkeys(points.learner))
+    fig, axes = plt.subplots(1, len(families), figsize=(5.2 * len(families), 4.2), sharey=True, squeeze=False)
+    for ax, family in zip(axes[0], families):
+        mine = points[points.family == family]
+        for k, learner in enumerate(learners):
+            rows = mine[mine.learner == learner].sort_values("n_units")
+            if not len(rows):
+                continue
+            central = bool(rows.centralized.iloc[0])
+            ax.errorbar(rows.n_units.to_numpy(dtype=float), rows.score.to_numpy(dtype=float),
+                        yerr=2 * np.nan_to_num(rows.score_se.to_numpy(dtype=float)), fmt="o--" if central else "o-",
+                        ms=4, lw=1.2, capsize=3, color=f"C{k % 10}",
+                        label=f"{learner} (centralized)" if central else learner)
+        ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_xscale("log")
+        sizes = sorted(set(mine.n_units.astype(int)))
+        ax.set_xticks(sizes)
+        ax.xaxis.set_major_formatter(ticker.FuncFormatter(lambda value, _: f"{value:,.0f}"))
+        ax.xaxis.set_minor_formatter(ticker.NullFormatter())
+        ax.set_xlabel("active units N (log scale)")
+        ax.set_title(f"{family}s")
+    axes[0][0].set_ylabel("score: final true Ubar / best known gait")
+    axes[0][-1].legend(fontsize="x-small")
+    if title:
+        fig.suptitle(title)
     return plots.save_figure(fig, path, dpi=DPI)

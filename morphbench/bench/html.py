@@ -84,9 +84,14 @@ def write_html(root: str | Path, videos: bool | Future = True) -> Path:
     return path
 
 
-def markdown_page(text: str, title: str) -> str:
-    """A Markdown text (CommonMark and tables, no raw HTML) as one page in the report's style (the leaderboard)."""
-    body = MarkdownIt("commonmark", {"html": False}).enable("table").render(text)
+def markdown_page(text: str, title: str, root: str | Path | None = None) -> str:
+    """A Markdown text (CommonMark and tables, no raw HTML) as one page in the report's style (the leaderboard); with
+    ``root``, its images of files in ``root`` inline as data URIs (as report.html's), anything else as text."""
+    md = MarkdownIt("commonmark", {"html": False}).enable("table")
+    tokens = md.parse(text)
+    if root is not None:
+        _inline_sources(tokens, Path(root))
+    body = md.renderer.render(tokens, md.options, {})
     return PAGE.format(title=html.escape(title), css=CSS, script="", body=body, suite="", versions="")
 
 

@@ -1,4 +1,5 @@
-"""``morphbench leaderboard``: learners scored on the standard task set (benchmarks/standard.toml, docs/leaderboard.md).
+"""``morphbench leaderboard``: learners scored on the standard task set (benchmarks/standard-v2.toml,
+docs/leaderboard.md).
 
 The built-in learners' results are stored, summarised, in the suite's reference table (``<suite>-reference.csv``
 beside the suite file, made by ``make_reference``: ``python benchmarks/leaderboard.py``), with the best gait known
@@ -8,6 +9,13 @@ for each task; the leaderboard reads them from there and never runs them again. 
 command again skips the runs the directory holds (the suites' resume; run ids are hashes of the runs, so a learner's
 runs are reused whatever others were named with it). ``DIR/leaderboard.md`` and ``DIR/leaderboard.html`` then show
 every learner's score per task and overall (morphbench.bench.scores), the stored built-ins beside the named ones.
+
+``--suite`` takes a suite file or the name of a task set shipped with morphbench (``standard-v1``: the file
+``standard-v1.toml`` of ``data_path("benchmarks")``); ``--tasks`` takes task names and the names of the suite's
+``groups`` (``scale``: its tasks). When the tasks shown include some of the group ``scale`` (SCALE_GROUP), each
+learner's score on them against the number of units is drawn into ``DIR/leaderboard-scale.png``, shown under the
+tables of leaderboard.md and .html (``scale_points``; benchmarks/leaderboard.py draws the same figure into
+docs/media/ for docs/leaderboard.md).
 """
 
 from __future__ import annotations
@@ -23,11 +31,18 @@ from morphbench.bench.model import Suite
 from morphbench.bench.store import DAMAGED, REPAIR, Store
 from morphbench.bench.suite import load_suite, suite_from_table
 from morphbench.errors import ConfigError
-from morphbench.files import check_path, read_toml_with_text, write_text
+from morphbench.files import check_path, is_file, read_toml_with_text, write_text
 
-STANDARD = "standard.toml"
+STANDARD = "standard-v2.toml"
+"""the task set ``morphbench leaderboard`` scores on unless ``--suite`` names another (its version: docs/leaderboard.md,
+"Versions")."""
+SETS = "standard-*.toml"
+"""the task sets shipped with morphbench, in ``data_path("benchmarks")``: ``--suite`` takes their names."""
 DEFAULT_OUT = "results/leaderboard"
-OUTPUTS = ("leaderboard.md", "leaderboard.html")
+SCALE_GROUP = "scale"
+"""the group of tasks whose scores the scaling figure draws against the number of units."""
+SCALE_FIGURE = "leaderboard-scale.png"
+OUTPUTS = ("leaderboard.md", "leaderboard.html", SCALE_FIGURE)
 
 
 @dataclass
@@ -43,11 +58,88 @@ class Board:
     """(run id, error) of the named learners' failed runs."""
     markdown: Path
     html: Path
+    scale: pd.DataFrame
+    """the learners' scores on the tasks of the group ``scale`` shown (``scale_points``; empty if none)."""
+    figure: Path | None = None
+    """``DIR/leaderboard-scale.png``, the scale figure, if drawn."""
 
 
 def standard_suite() -> Path:
     """The standard task set shipped with morphbench."""
     return data_path("benchmarks") / STANDARD
+
+
+def shipped_sets() -> list[str]:
+    """The names of the task sets shipped with morphbench (``standard-v1``, ``standard-v2``, ...)."""
+    return sorted(path.stem for path in data_path("benchmarks").glob(SETS))
+
+
+def suite_file(value: str | Path | None) -> Path:
+    """``--suite``: a suite file, or the name of a task set shipped with morphbench (``standard-v1`` or
+    ``standard-v1.toml``, in ``data_path("benchmarks")``) where no such file exists; None: the standard set. A bare
+    name that is neither is a ConfigError listing the shipped sets (a path is left to the suite reader)."""
+    if value is None:
+        return standard_suite()
+    path = Path(value)
+    if is_file(path) or str(path.name) != str(value):
+        return path
+    shipped = data_path("benchmarks") / (path.name if path.suffix == ".toml" else f"{path.name}.toml")
+    if is_file(shipped):
+        return shipped
+    raise ConfigError("--suite", str(value), "a suite file or the name of a task set shipped with morphbench ("
+                                             f"{', '.join(shipped_sets())})")
+
+
+def task_names(names: list[str], suite: Suite, suite_path: str | Path) -> list[str]:
+    """``--tasks``: each name a task of ``suite`` or one of its groups (its tasks, in the group's order); the tasks
+    once each, in the order named. Any other name is a ConfigError listing both."""
+    tasks = [e.name for e in suite.experiments]
+    chosen = []
+    for name in names:
+        if name in tasks:
+            chosen.append(name)
+        elif name in suite.groups:
+            chosen.extend(suite.groups[name])
+        else:
+            groups = ", ".join(suite.groups) or "it has none"
+            raise ConfigError("--tasks", name, f"a task of {suite_path} ({', '.join(tasks)}) or one of its groups "
+                                               f"({groups})")
+    return list(dict.fromkeys(chosen))
+
+
+def task_sizes(suite: Suite, tasks) -> pd.DataFrame:
+    """Per task of ``tasks`` (in that order): ``task``, ``family`` (its shape's name up to the first '-': chain,
+    sheet, ...) and ``n_units`` (its shape's active units at the start), for the scaling figure."""
+    rows = []
+    for experiment in suite.experiments:
+        if experiment.name in tasks:
+            shape = suite.runs[experiment.run_ids[0]].config.shape
+            rows.append({"task": experiment.name, "family": shape.name.split("-", 1)[0], "n_units": shape.n_units})
+    order = {task: k for k, task in enumerate(tasks)}
+    table = pd.DataFrame(rows, columns=["task", "family", "n_units"])
+    return table.sort_values("task", key=lambda column: column.map(order), ignore_index=True)
+
+
+def scale_points(suite: Suite, scores: pd.DataFrame, tasks: list[str] | None = None) -> pd.DataFrame:
+    """The scores of the suite's group ``scale`` (of ``tasks`` if given) against the number of units
+    (``scores.scale_table``): empty if the suite has no such group."""
+    group = [task for task in suite.groups.get(SCALE_GROUP, ()) if tasks is None or task in tasks]
+    return S.scale_table(scores, task_sizes(suite, group))
+
+
+def scale_sentence(points: pd.DataFrame, who: str = "Each learner's") -> str:
+    """One sentence saying what the scaling figure of ``points`` (``scale_points``) shows."""
+    panels = []
+    for family, rows in points.groupby("family", sort=False):
+        low, high = int(rows.n_units.min()), int(rows.n_units.max())
+        panels.append(f"{family}s of {low:,} to {high:,} units" if low != high else f"{family}s of {low:,} units")
+    where = "; ".join(f"{text} ({side})" for text, side in zip(panels, _sides(len(panels))))
+    return (f"{who} score on the tasks of the group `{SCALE_GROUP}` against their number of units N (log scale): "
+            f"{where}; the mean over the seeds +- 2 standard errors, 1 the best gait known for each task.")
+
+
+def _sides(n: int) -> list[str]:
+    return ["alone"] if n == 1 else ["left", "right"] if n == 2 else [f"panel {k}" for k in range(1, n + 1)]
 
 
 def reference_path(suite_path: str | Path) -> Path:
@@ -74,7 +166,7 @@ def learner_suite(path: str | Path, learners: list[str], tasks: list[str] | None
             raise ConfigError(path, f"experiment[{experiment.get('name', index)}].learner.name",
                               "no learner name in a task of the leaderboard (it runs the learners it is given)")
         kept.append({key: value for key, value in experiment.items() if key != "scans"})
-    own = {key: value for key, value in table.items() if key not in ("scan", "experiment", "defaults")}
+    own = {key: value for key, value in table.items() if key not in ("scan", "experiment", "defaults", "groups")}
     return suite_from_table({**own, "defaults": defaults, "experiment": kept}, source=str(path), base=path.parent,
                             default_name=path.stem, text=text)
 
@@ -93,19 +185,18 @@ def conditions(suite: Suite) -> pd.DataFrame:
 def leaderboard(learners: list[str], out: str | Path = DEFAULT_OUT, suite_path: str | Path | None = None,
                 tasks: list[str] | None = None, executor=None, progress: bool = True) -> Board:
     """Score ``learners`` (names as ``--learner`` takes them; none: the stored built-ins alone) on the suite
-    (default: the standard set) against its reference table, running those it does not store into ``out``; write
-    ``out``/leaderboard.md and .html. Bad input (a learner that cannot be loaded, an unknown task, a reference
-    table that is not this suite's, a results directory of another suite or with damaged runs) is a ConfigError."""
+    (``suite_file``: a file or a shipped set's name; default: the standard set) against its reference table, running
+    those it does not store into ``out``; write ``out``/leaderboard.md and .html (and the scale figure,
+    leaderboard-scale.png, when the tasks shown include some of the group ``scale``). ``tasks``: task or group names
+    (``task_names``). Bad input (a learner that cannot be loaded, an unknown task or group, a reference table that
+    is not this suite's, a results directory of another suite or with damaged runs) is a ConfigError."""
     from morphbench.learning.plugins import learner_name
 
     out = check_path(str(out), "--out")  # before anything is read: an impossible name writes nothing
-    suite_path = Path(suite_path) if suite_path is not None else standard_suite()
+    suite_path = suite_file(suite_path)
     named = list(dict.fromkeys(learner_name(name) for name in learners))
     full = load_suite(suite_path)
-    names = [e.name for e in full.experiments]
-    for name in tasks or ():
-        if name not in names:
-            raise ConfigError("--tasks", name, f"a task of {suite_path} ({', '.join(names)})")
+    tasks = task_names(tasks, full, suite_path) if tasks else None
     reference = S.read_reference(reference_path(suite_path), full)
     stored_rows = reference[reference.kind == "learner"]
     S.check_conditions(reference, conditions(full)[lambda t: t.source.isin(set(stored_rows.source))],
@@ -133,15 +224,23 @@ def leaderboard(learners: list[str], out: str | Path = DEFAULT_OUT, suite_path: 
     compared = S.compared_tasks(scores, tasks)
     tables = S.markdown(scores, reference, compared, stored=stored)
     title = f"Leaderboard: {full.name}"
-    return Board(scores, S.overall(scores, compared), tables, failures,
-                 *write_board(out, f"# {title}\n\n{full.description}\n\n{tables}", title))
+    text = f"# {title}\n\n{full.description}\n\n{tables}"
+    points, figure = scale_points(full, scores, tasks), None
+    if len(points):
+        from morphbench.bench.figures import leaderboard_scale
+
+        figure = leaderboard_scale(points, out / SCALE_FIGURE, f"{full.name}: score against the number of units")
+        text += f"\n## Scale\n\n{scale_sentence(points)}\n\n![score against the number of units]({SCALE_FIGURE})\n"
+    return Board(scores, S.overall(scores, compared), tables, failures, *write_board(out, text, title), points, figure)
 
 
 def make_reference(suite_path: str | Path, out: str | Path, executor=None, progress: bool = True):
     """Run the suite in full (its scans and its own learners: the built-ins) into ``out`` (resumed if it holds them)
-    and write its reference table beside the suite file; the table and the run's Outcome (bench.runner)."""
+    and write its reference table beside the suite file (``suite_file``: a file or a shipped set's name); the table
+    and the run's Outcome (bench.runner)."""
     from morphbench.bench.runner import run_suite
 
+    suite_path = suite_file(suite_path)
     suite = load_suite(suite_path)
     outcome = run_suite(suite, out, executor, resume=True, progress=progress)
     jobs = outcome.tables["jobs"]
@@ -172,9 +271,9 @@ def write_board(out: Path, text: str, title: str) -> tuple[Path, Path]:
     """``out``/leaderboard.md and the same as one page, leaderboard.html."""
     from morphbench.bench.html import markdown_page
 
-    md, page = (out / name for name in OUTPUTS)
+    md, page = (out / name for name in OUTPUTS[:2])
     write_text(md, text)
-    write_text(page, markdown_page(text, title))
+    write_text(page, markdown_page(text, title, root=out))  # its figure inline: one page that needs no other file
     return md, page
 
 

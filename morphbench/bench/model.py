@@ -101,6 +101,8 @@ class Suite:
     experiments: list[Experiment] = field(default_factory=list)
     runs: dict[str, RunSpec] = field(default_factory=dict)
     scans: list[ScanSpec] = field(default_factory=list)
+    groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    """named lists of its experiments (the suite's ``groups``: ``morphbench leaderboard --tasks GROUP``)."""
 
     def jobs(self) -> list[Job]:
         """Every job of the suite in a fixed order: runs as the experiments list them, then scan parts."""

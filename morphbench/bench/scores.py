@@ -11,7 +11,10 @@ reference, the **best known gait**, is the highest of its scans' best points and
 
 so that a task's score does not depend on how fast its robot can go, and the overall score weighs the tasks
 equally. A learner is scored on a task when at least ``MIN_RUNS`` of its runs there finished; learners are compared
-overall on the tasks every one of them is scored on (a plug-in run on a few tasks is compared on those).
+overall on the tasks every one of them is scored on (a plug-in run on a few tasks is compared on those). A
+centralized baseline (learning.controllers.CENTRALIZED) is a reference for the per-unit learners, not one of them:
+it does not narrow their comparison, and is averaged over the compared tasks it is scored on (it cannot run units
+whose steps start at their own moments).
 """
 
 from __future__ import annotations
@@ -180,10 +183,15 @@ def task_scores(results: pd.DataFrame, best: pd.Series) -> pd.DataFrame:
 
 def common_tasks(scores: pd.DataFrame) -> list[str]:
     """The tasks every learner of ``scores`` that is scored anywhere is scored on, in their order (a learner whose
-    runs all failed leaves the others their comparison)."""
+    runs all failed leaves the others their comparison). Centralized baselines count only if no other learner is
+    scored anywhere: they are compared on the others' tasks, not the others on theirs."""
+    from morphbench.learning.controllers import CENTRALIZED
+
     scored = scores[np.isfinite(scores.score)]
-    counts = scored.groupby("task", sort=False).learner.nunique()
-    return [task for task in scores.task.unique() if counts.get(task, 0) == scored.learner.nunique()]
+    deciding = scored[~scored.learner.isin(list(CENTRALIZED))]
+    deciding = deciding if len(deciding) else scored
+    counts = deciding.groupby("task", sort=False).learner.nunique()
+    return [task for task in scores.task.unique() if counts.get(task, 0) == deciding.learner.nunique()]
 
 
 def overall(scores: pd.DataFrame, tasks: list[str] | None = None) -> pd.DataFrame:
@@ -200,6 +208,26 @@ def overall(scores: pd.DataFrame, tasks: list[str] | None = None) -> pd.DataFram
     return table.sort_values("score", ascending=False, kind="stable", ignore_index=True)
 
 
+def scale_table(scores: pd.DataFrame, sizes: pd.DataFrame) -> pd.DataFrame:
+    """The scaling figure's data: per task of ``sizes`` (``task``, ``family``, ``n_units``: its shape's kind and active
+    units) and learner of ``scores`` scored there, ``family``, ``n_units``, ``task``, ``learner``, ``centralized``,
+    ``score``, ``score_se`` and the error bar's ends ``low`` and ``high`` (score -+ 2 standard errors); by family in
+    the order of ``sizes``, then N, learners in the order of ``scores``."""
+    from morphbench.learning.controllers import CENTRALIZED
+
+    columns = ["family", "n_units", "task", "learner", "centralized", "score", "score_se", "low", "high"]
+    table = sizes.merge(scores[np.isfinite(scores.score)], on="task")
+    if not len(table):
+        return pd.DataFrame(columns=columns)
+    table["centralized"] = table.learner.isin(list(CENTRALIZED))
+    table["low"], table["high"] = table.score - 2 * table.score_se, table.score + 2 * table.score_se
+    family = {name: k for k, name in enumerate(dict.fromkeys(sizes.family))}
+    learner = {name: k for k, name in enumerate(dict.fromkeys(scores.learner))}
+    table = table.assign(_f=table.family.map(family), _l=table.learner.map(learner))
+    table = table.sort_values(["_f", "n_units", "_l"], kind="stable", ignore_index=True)
+    return table[columns]
+
+
 def compared_tasks(scores: pd.DataFrame, tasks: list[str] | None = None) -> list[str]:
     """The tasks the learners are compared on overall: every learner's (``common_tasks``), of ``tasks`` if given."""
     return [task for task in common_tasks(scores) if tasks is None or task in tasks]
@@ -214,8 +242,11 @@ def markdown(scores: pd.DataFrame, reference: pd.DataFrame, tasks: list[str], st
     best, source = best_known(reference), best_source(reference)
     over = (f"all {len(all_tasks)} tasks" if len(tasks) == len(all_tasks)
             else f"the {len(tasks)} of {len(all_tasks)} tasks every learner is scored on")
+    fewer = ranking.tasks < len(tasks)
+    note = (" A centralized baseline is averaged over those it is scored on (the tasks column)." if fewer.any()
+            else "")
     lines = ["## Overall", "",
-             f"Mean task score over {over}, +- its standard error; 1 is the best gait known for each task.", "",
+             f"Mean task score over {over}, +- its standard error; 1 is the best gait known for each task.{note}", "",
              "| rank | learner | score | tasks |", "|---|---|---|---|"]
     for rank, row in enumerate(ranking.itertuples(), 1):
         lines.append(f"| {rank} | {_learner(row.learner, stored)} | {_pm(row.score, row.score_se)} | {row.tasks} |")

@@ -4,6 +4,8 @@ A suite file is TOML::
 
     name = "smoke"                      # optional, default: the file's stem
     description = "what this suite is for"
+    groups = {small = ["S1", "S4"]}     # optional: named lists of its experiments (morphbench leaderboard --tasks
+                                        #   small); a group's name is no experiment's
 
     physics = "quasistatic"             # optional: the preset of every run and scan that names no physics of its own
     [defaults]                          # optional: any experiment key, used where an experiment leaves it out
@@ -34,6 +36,9 @@ A suite file is TOML::
     [[scan]]                            # a landscape at fixed phases (morphbench.experiment.scan)
     shape = "../shapes/chain-2.toml"
     resolution = 20                     # points per phase axis (up to 3 units; beyond: `samples` seeded points)
+                                        # or waves = 40: the 40 travelling waves along the heading instead (unit in
+                                        #   column c at phase c * delta mod 1, delta = 0, 1/40, ...; not with
+                                        #   resolution or samples)
     cycles = 12                         # cycles measured per point (default 12), after `discard` (default 2)
     physics = "default"                 # a preset, or a table as an experiment's: {preset = "fast", timestep = 0.005}
     environment = {friction_scale = 1.5}   # optional: the EnvironmentParams the scan runs in (no noise: scans
@@ -116,7 +121,7 @@ from morphbench.bench.model import (
 
 EXPERIMENT_KEYS = ("name", "scans", *RUN_KEYS, *ALIASES)
 DEFAULT_KEYS = tuple(k for k in EXPERIMENT_KEYS if k not in ("name", "description", "scans"))
-SUITE_KEYS = ("name", "description", "physics", "defaults", "experiment", "scan")
+SUITE_KEYS = ("name", "description", "groups", "physics", "defaults", "experiment", "scan")
 SUITE_DEFAULTS = {"sensor": {"kind": "ideal"}}
 """Suites score the true velocity and run thousands of learning runs: they measure with the ideal sensor (10%
 cheaper than the optical one) unless told otherwise."""
@@ -190,7 +195,29 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
             if name not in scan_names:
                 raise ConfigError(source, f"experiment[{experiment.name}].scans", "names of the suite's scans ("
                                   f"{', '.join(sorted(scan_names)) or 'it has none'})", name)
+    suite.groups = _groups(table.get("groups", {}), [e.name for e in suite.experiments], source)
     return suite
+
+
+def _groups(value: Any, experiments: list[str], source: str) -> dict[str, tuple[str, ...]]:
+    """The suite's ``groups``: a table of names (none an experiment's), each a non-empty list of distinct experiment
+    names of the suite."""
+    if not isinstance(value, dict):
+        raise ConfigError(source, "groups", "a table of group names, each a list of experiment names", value)
+    groups = {}
+    for name, members in value.items():
+        key = f"groups.{name}"
+        check_name(name, source, key)
+        if name in experiments:
+            raise ConfigError(source, key, "a group name no experiment has (--tasks would not know which is meant)",
+                              name)
+        if not isinstance(members, list) or not members:
+            raise ConfigError(source, key, "a non-empty list of experiment names", members)
+        for member in members:
+            if member not in experiments:
+                raise ConfigError(source, key, f"names of the suite's experiments ({', '.join(experiments)})", member)
+        groups[name] = tuple(distinct(members, source, key))
+    return groups
 
 
 def _scan_names(value: Any, source: str, key: str) -> tuple[str, ...]:

@@ -1,8 +1,11 @@
 """Landscape scans: Ubar at fixed phases over the phase differences relative to unit 1 (no learning).
 
 For 2 units the scan is a curve over dphi_2, for 3 a grid over (dphi_2, dphi_3); beyond that the space is sampled
-at seeded random points. Each point is its own world (fresh, settled, ``discard`` cycles of transient dropped), so
-points are independent and the result is the same whatever the number of workers.
+at seeded random points. A scan of travelling waves (``wave_phases``) measures instead gaits of the whole assembly
+that random samples miss beyond a few units: the unit in column c (counted from the front along the shape's heading,
+``grid_places``; in a chain, its place) at phase c * delta mod 1, for lags delta in [0, 1). Each point is its own
+world (fresh, settled, ``discard`` cycles of transient dropped), so points are independent and the result is the
+same whatever the number of workers.
 
 A scan may measure a damaged assembly: ``damage``, a DamageEvent (morphbench.experiment.events, parsed with
 ``parse_event(table, ..., kind="damage")``), is applied to each point's fresh world before anything moves, exactly as
@@ -62,6 +65,31 @@ def scan_phases(n_units: int, resolution: int, samples: int | None = None, seed:
         rng = np.random.default_rng(np.random.SeedSequence([seed, SCAN_STREAM]))
         grid = rng.uniform(0.0, 1.0, size=(samples or resolution * resolution, n_units - 1))
     return np.hstack([np.zeros((len(grid), 1)), grid])
+
+
+def grid_places(shape: Shape) -> tuple[np.ndarray, np.ndarray]:
+    """Each unit's column (0 at the front, along the heading) and row (0 on the left of the heading), in unit order:
+    units whose centres are equally far along the heading (to 1 nm) share a column, those equally far across it a
+    row. For a chain, a unit's column is its place (0 the front unit)."""
+    xy = np.array([shape.bodies[body].position[:2] for body in shape.units])
+    heading = np.asarray(shape.heading[:2], dtype=float)
+    along = xy @ heading
+    across = xy @ np.array([-heading[1], heading[0]])
+    columns = np.unique(np.round(along, 9), return_inverse=True)[1]
+    rows = np.unique(np.round(across, 9), return_inverse=True)[1]
+    return columns.max() - columns, rows.max() - rows
+
+
+def wave_lags(n_waves: int) -> np.ndarray:
+    """The lags of ``n_waves`` travelling waves, delta in arange(n_waves) / n_waves (delta 0: every unit in phase)."""
+    return np.arange(n_waves) / n_waves
+
+
+def wave_phases(shape: Shape, lags) -> np.ndarray:
+    """(len(lags), n_units) phase vectors of travelling waves along the heading: for each lag delta, the unit in
+    column c (``grid_places``) at phase c * delta mod 1 (cycles); the front column at 0."""
+    columns, _ = grid_places(shape)
+    return np.mod(np.outer(np.asarray(lags, dtype=float), columns), 1.0)
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ that vector is what ``u_memory`` records (their mean is the remembered Ubar). Th
 - ``hill-climber``: the kept vector with every phase perturbed by ``uniform(-1, 1) * step_size``;
 - ``cmaes``: candidates of ``cma.CMAEvolutionStrategy`` over the phase vector (unwrapped; wrapped modulo 1 to run),
   started at the initial vector with ``CMA_SIGMA0``, one candidate per step, each generation told once all its
-  candidates are measured.
+  candidates are measured; a full covariance matrix up to ``CMA_FULL_UNITS`` units, a diagonal one beyond.
 """
 
 from __future__ import annotations
@@ -29,6 +29,12 @@ from morphbench.streams import CONTROLLER_STREAM
 CMA_SIGMA0 = 0.1
 """cycles: CMA-ES's initial step size, the per-unit learners' default step size (on chain-3, 60 steps, seeds 0-7,
 final Ubar 2.5 mm/cycle against 1.0 with a quarter cycle: larger steps spend the few generations exploring)."""
+
+
+CMA_FULL_UNITS = 100
+"""units up to which CMA-ES adapts a full covariance matrix; beyond, a diagonal one (cma's ``CMA_diagonal=True``,
+separable CMA-ES): the full matrix of 10,000 units would be 800 MB and each of its eigendecompositions O(n^3), where
+the diagonal one costs O(n) a candidate. Runs of up to 100 units are those of the full matrix, as before it."""
 
 
 def controller_rng(seed: int) -> np.random.Generator:
@@ -98,6 +104,8 @@ class CMAES(CentralController):
         # cma seeds numpy's global generator unless it samples from its own randn and the seed is NaN
         options = {"randn": lambda *shape: rng.standard_normal(shape), "seed": math.nan, "verbose": -9,
                    "verb_log": 0, "verb_disp": 0}
+        if n_units > CMA_FULL_UNITS:  # up to it the options, and so every draw, are those of the first runs
+            options["CMA_diagonal"] = True
         self.es = cma.CMAEvolutionStrategy(self.kept.copy(), CMA_SIGMA0, options)
         self._asked: list[np.ndarray] = []
         self._told: list[tuple[np.ndarray, float]] = []
