@@ -47,10 +47,12 @@ MEASURED_CYCLES = 2
 """cycles a learning step measures, from its phase change (the paper's protocol, ``LearnerParams.cycles_per_step``)."""
 
 
-def step_velocities(shape, phases: np.ndarray, trial: np.ndarray, settle: int, windows: int = 2) -> np.ndarray:
+def step_velocities(shape, phases: np.ndarray, trial: np.ndarray, settle: int, windows: int = 2,
+                    cycles: int = MEASURED_CYCLES) -> np.ndarray:
     """mm/cycle, (windows, N): each unit's measured velocity over a learning step (a fresh world at ``phases``, settled
     for ``settle`` cycles, then at ``phases + trial`` for MEASURED_CYCLES cycles, measured by the ideal sensor as in a
-    run), and over each of the next ``windows`` - 1 stretches of as many cycles."""
+    run), and over each of the next ``windows`` - 1 stretches of as many cycles. ``cycles``: the cycles of a window
+    instead (1: each cycle's velocity after the change; benchmarks/scaling_causes.py)."""
     from morphbench.experiment.run import measure
     from morphbench.params import DEFAULT_PHYSICS, SensorParams
     from morphbench.physics import make_world
@@ -61,8 +63,8 @@ def step_velocities(shape, phases: np.ndarray, trial: np.ndarray, settle: int, w
         world.advance(world.ticks_in(settle * shape.actuator.cycle_time))
         world.set_phases(phases + trial)
         measured = [measure(world, [IdealSensor(shape.n_units, sample_period=SensorParams().sample_period)],
-                            MEASURED_CYCLES)[0] for _ in range(windows)]
-    return np.array(measured) * 1000.0 / MEASURED_CYCLES
+                            cycles)[0] for _ in range(windows)]
+    return np.array(measured) * 1000.0 / cycles
 
 
 def _job(args) -> np.ndarray:
