@@ -569,37 +569,36 @@ def signal_table(results: dict, assemblies: list[Assembly]) -> list[str]:
              "settled (RMS) | interference, all move, cycle 2 (RMS) | S/I: all move, cycle 2 | S/I: all move, cycles "
              "1-2 (Thermal) | interference, p try, cycle 2 (RMS) | S/I: p try, cycle 2 (sparse) | right sign: Thermal "
              "| right sign: sparse |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for a, kind, step, row in _signal_rows(results, assemblies):
+        lines.append(f"| {a.name} | {a.n_units} | {kind} | {step:g} | {row['own']:.3f} | {row['ubar']:.4f} | "
+                     f"{row[('noise', 'all', '2')]:.3f} | {_ratio_cell(row[('sir', 'all', '2')])} | "
+                     f"{_ratio_cell(row[('sir', 'all', '1-2')])} | {row[('noise', 'some', '2')]:.3f} | "
+                     f"{_ratio_cell(row[('sir', 'some', '2')])} | {_share(row[('right', 'all', '1-2')])} | "
+                     f"{_share(row[('right', 'some', '2')])} |")
+    return lines
+
+
+def _signal_rows(results: dict, assemblies: list[Assembly]):
+    """(assembly, base kind, step size, its measurements of (a) and (b)) for every one measured, in table order."""
     for a in assemblies:
         for kind in ("wave", "random"):
             for step in SIGNAL_STEPS:
                 row = results["signal"].get((a.name, kind, step))
-                if row is None:
-                    continue
-                lines.append(f"| {a.name} | {a.n_units} | {kind} | {step:g} | {row['own']:.3f} | {row['ubar']:.4f} | "
-                             f"{row[('noise', 'all', '2')]:.3f} | {_ratio_cell(row[('sir', 'all', '2')])} | "
-                             f"{_ratio_cell(row[('sir', 'all', '1-2')])} | {row[('noise', 'some', '2')]:.3f} | "
-                             f"{_ratio_cell(row[('sir', 'some', '2')])} | {_share(row[('right', 'all', '1-2')])} | "
-                             f"{_share(row[('right', 'some', '2')])} |")
-    return lines
+                if row is not None:
+                    yield a, kind, step, row
 
 
 def distance_table(results: dict, assemblies: list[Assembly]) -> list[str]:
     lines = ["| assembly | N | base | step | Ubar of the kept gait (mm/cycle) | all move: RMS phase distance "
              "(cycles) | mean abs(dU) (+- SE) | mean dU (+- SE) | p try: RMS phase distance | mean abs(dU) | mean dU |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for a in assemblies:
-        for kind in ("wave", "random"):
-            for step in SIGNAL_STEPS:
-                row = results["signal"].get((a.name, kind, step))
-                if row is None:
-                    continue
-                cells = []
-                for regime in REGIMES:
-                    absolute, absolute_se, signed, signed_se = row[("du", regime)]
-                    cells.append(f"{row['distance'][regime]:.3f} | {absolute:.3f} +- {absolute_se:.3f} | "
-                                 f"{signed:+.3f} +- {signed_se:.3f}")
-                lines.append(f"| {a.name} | {a.n_units} | {kind} | {step:g} | {row['kept']:+.2f} | "
-                             + " | ".join(cells) + " |")
+    for a, kind, step, row in _signal_rows(results, assemblies):
+        cells = []
+        for regime in REGIMES:
+            absolute, absolute_se, signed, signed_se = row[("du", regime)]
+            cells.append(f"{row['distance'][regime]:.3f} | {absolute:.3f} +- {absolute_se:.3f} | "
+                         f"{signed:+.3f} +- {signed_se:.3f}")
+        lines.append(f"| {a.name} | {a.n_units} | {kind} | {step:g} | {row['kept']:+.2f} | " + " | ".join(cells) + " |")
     return lines
 
 
