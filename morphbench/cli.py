@@ -22,6 +22,8 @@ from morphbench.params import (
     COUNT,
     DEFAULT_SEED,
     DEFAULT_STEPS,
+    ENVIRONMENT_PRESET,
+    ENVIRONMENT_PRESETS,
     LEARNER_HELP,
     LEARNER_PRESETS,
     PHYSICS_PRESET,
@@ -33,6 +35,7 @@ from morphbench.params import (
     LearnerParams,
     SensorParams,
     learner_defaults,
+    scan_environment,
 )
 from morphbench.render.options import add_render_arguments, video_params_from_args
 from morphbench.rules import field_option, option_type
@@ -95,6 +98,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--noise", type=field_option(EnvironmentParams, "noise"),
                      help=f"Gaussian measurement noise, mm/cycle (default {EnvironmentParams().noise:g})")
     _add_physics(run, default=None)
+    _add_environment(run, "the world the run is in: a preset (default: the file's, else default); the file's own "
+                          "[environment] fields and --noise apply on top")
     run.add_argument("--out", help="output directory (default runs/NAME-LEARNER-seedS-ID, ID a short hash of the "
                                    "whole configuration: steps, sensor, noise, physics, ...)")
     run.add_argument("--overwrite", action="store_true",
@@ -128,6 +133,8 @@ def _parser() -> argparse.ArgumentParser:
     scan.add_argument("--workers", type=option_type(COUNT), default=1,
                       help="worker processes (default 1; at most the number of points and of CPUs are used)")
     _add_physics(scan, default="default")
+    _add_environment(scan, "the ground and pumps the scan measures in: a preset's (without its noise and clocks: "
+                           "a scan measures the true velocity on one clock; default: default)")
     scan.set_defaults(func=_warnings_unless_failed(_cmd_scan))
     add_shapes_commands(sub)
     add_bench_commands(sub)
@@ -158,6 +165,13 @@ def _add_physics(parser: argparse.ArgumentParser, default: str | None) -> None:
                              "reference (PyBullet, finer), quasistatic (springs and friction without inertia, exact; "
                              "one layer on the ground) or dynamic (the same springs with inertia and sticking "
                              "friction, linear in the units; one layer on the ground)")
+
+
+def _add_environment(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument("--environment", choices=ENVIRONMENT_PRESET.values, default=None,
+                        help=f"{what}. default: a uniform ground, no vibration, noise or clocks of their own; "
+                             "hardware: the paper's robots on their track (pump vibration, a friction field, sensor "
+                             "noise, clocks of their own: docs/hardware.md)")
 
 
 def _run_dir(out: str, overwrite: bool) -> Path:
@@ -246,7 +260,8 @@ def _cmd_run(args) -> int:
     from morphbench.render import open_recorder
 
     with announced(f"reading, generating and checking {args.config}", args.quiet):
-        config = _with_options(load_run_config(resolve_shape_path(args.config), physics=args.physics), args)
+        config = _with_options(load_run_config(resolve_shape_path(args.config), physics=args.physics,
+                                               environment=args.environment), args)
     if args.steps is not None:
         check_events_happen(config, "--steps", str(args.steps))
     load_learner_class(config.learner)  # fail on a bad plug-in before simulating
@@ -378,6 +393,7 @@ def _cmd_scan(args) -> int:
     n_points = len(scan_phases(shape.n_units, args.resolution, args.samples))
     with tqdm(total=n_points, desc=f"scan {shape.name}", unit="point", disable=args.quiet) as bar:
         table = scan(shape, args.resolution, physics=PHYSICS_PRESETS[args.physics],
+                     environment=scan_environment(ENVIRONMENT_PRESETS[args.environment or "default"]),
                      cycles=args.cycles or DEFAULT_CYCLES, samples=args.samples, seed=args.seed,
                      workers=min(args.workers, n_points, os.cpu_count() or 1), progress=bar.update)
     atomic_write(out / "scan.csv", lambda tmp: table.to_csv(tmp, index=False, float_format="%.6g"))

@@ -19,6 +19,7 @@ limits, the presets and the rules across fields of a run.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Literal, get_args
@@ -373,6 +374,10 @@ class FrictionFieldParams:
     """false: the field varies along x only (a track); true: along x and y (a plane)."""
     seed: int = param(1, SEED)
     """the same seed gives the same field."""
+    offset: float = param(0.0, between(0, 1e4), "m", later=True)
+    """m, where on the track the assembly starts: the field is read at x + offset (its features shifted by offset
+    along x, the same track), so scans at offsets 0, period / 4, ... measure one gait at places along one track
+    (benchmarks/paper-hardware.toml, claim hw-3-track); 0 reads it as before."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -424,6 +429,46 @@ class GroundParams:
     """m, procedural tile's extent along the world x axis (an image's extent is its size times the resolution)."""
     width: float = param(0.5, between(0, 1e4, low_inclusive=False), "m")
     """m, procedural tile's extent along the world y axis."""
+
+
+DEFAULT_ENVIRONMENT = EnvironmentParams()
+"""The paper's simulations: a uniform ground, no vibration, no noise, one shared clock."""
+
+HARDWARE_ENVIRONMENT = EnvironmentParams(
+    vibration=0.8,
+    noise=0.5,
+    friction_field=FrictionFieldParams(amplitude=0.3, correlation_length=0.25, period=2.0, seed=1),
+    clock_drift=0.001,
+    clock_offset=1.0,
+)
+"""The paper's robots on their track (docs/hardware.md): the effects morphbench has that its experiments show and
+its simulations do not, all at once. PROVISIONAL values, chosen from docs/paper.md and docs/calibration.md, not
+fitted: they hold until ``python benchmarks/calibrate.py --targets hardware`` has been run and its result written
+here.
+
+- ``vibration`` 0.8: a unit's friction while its own pump runs (the dummy never vibrates), the paper's explanation
+  of the experiments' forward/backward asymmetry (Results of Two Units); docs/paper.md's suggested value.
+- ``friction_field``: +-30% (amplitude 0.3, docs/paper.md's 0.2-0.4, S4's field), features no shorter than 0.25 m
+  (stretches of a few robot lengths, where a gait may stop: Fig. 2F), repeating every 2 m (the circular track,
+  unrolled: the paper's main text gives no size; 2 m is the field's own default), seed 1.
+- ``noise`` 0.5 mm/cycle: Gaussian noise on each measured velocity, the middle of SI Fig. S5's 0.25-1 (the
+  experiments' "significant noise", Fig. 2D-E).
+- ``clock_drift`` 0.001: each unit's pump period off by up to 0.1% (a ceramic resonator; 1% stops learning:
+  docs/sensing.md); ``clock_offset`` 1: each unit starts its learning steps at its own moment (no shared clock).
+
+A scan measures the preset's ground and pumps only (``scan_environment``: no noise, one clock)."""
+
+ENVIRONMENT_PRESETS: dict[str, EnvironmentParams] = {"default": DEFAULT_ENVIRONMENT, "hardware": HARDWARE_ENVIRONMENT}
+ENVIRONMENT_PRESET = Choices(tuple(ENVIRONMENT_PRESETS))
+"""an environment preset by name (a run file's ``environment = "hardware"`` or ``[environment] preset``, a suite's
+experiment or scan ``environment``, ``run --environment``, ``scan --environment``); fields beside ``preset`` override
+the preset's, key by key (a ``friction_field`` sub-table field by field)."""
+
+
+def scan_environment(environment: EnvironmentParams) -> EnvironmentParams:
+    """What a scan of ``environment`` measures in: its ground and pumps (friction scale and field, vibration), without
+    its measurement noise or clocks of their own (a scan measures the true velocity at fixed phases on one clock)."""
+    return dataclasses.replace(environment, noise=0.0, clock_drift=0.0, clock_offset=0.0)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -18,7 +18,7 @@ from morphbench.rules import check
 def params_from_table(cls: type, table: Any, source: str, section: str, base: Any = None):
     """A frozen parameter dataclass from a TOML table, every key checked against the dataclass's fields; a field
     that is itself a parameter dataclass is read from a sub-table; the fields the table leaves out are ``base``'s
-    (an instance of ``cls``), else the defaults."""
+    (an instance of ``cls``; a sub-table's, the base's sub-table's), else the defaults."""
     if not isinstance(table, dict):
         raise ConfigError(source, section, f"a table of {cls.__name__} fields", table)
     fields = {f.name: f for f in dataclasses.fields(cls)}
@@ -26,8 +26,9 @@ def params_from_table(cls: type, table: Any, source: str, section: str, base: An
     values = {}
     for key, value in table.items():
         default = field_default(fields[key])
-        if dataclasses.is_dataclass(default):
-            values[key] = params_from_table(type(default), value, source, f"{section}.{key}")
+        if dataclasses.is_dataclass(default):  # a sub-table on top of the base's own (a preset's friction field)
+            values[key] = params_from_table(type(default), value, source, f"{section}.{key}",
+                                            None if base is None else getattr(base, key))
         else:
             values[key] = check(cls, key, value, source, f"{section}.{key}")
     return cls(**values) if base is None else dataclasses.replace(base, **values)

@@ -36,6 +36,8 @@ def translate(table: dict, src: str, prefix: str) -> tuple[dict, dict[str, str]]
     def insert(key: str, field_name: str, value: Any, alias: str) -> None:
         """``value`` as ``field_name`` of the table ``table[key]``, or of each table if it is a list of them."""
         target = table.get(key, {})
+        if key == "environment" and isinstance(target, str):  # a preset's name: its noise set beside it
+            target = {"preset": target}
         if isinstance(target, dict):
             tables, paths = [target], [key]
         elif is_tables(target):

@@ -16,6 +16,13 @@ A measuring function returns a ``Measured`` (the value and what it was measured 
 needs, a sentence saying what is missing: the claim is then 'not measured', never an error. ``check(tables)`` gives
 one ``Verdict`` per claim, in the order of ``CLAIMS``. A new claim is one more entry of ``CLAIMS``.
 
+Which claims a report checks follows its suite's name (``claims_for``): the results of benchmarks/paper-hardware.toml
+(``HARDWARE_SUITE``, the paper's experiments on the environment preset ``hardware``) are checked against
+``HARDWARE_CLAIMS`` alone, every other suite's (paper, paper-quick, smoke, ...) against ``CLAIMS``, as before. The
+hardware claims' ids start with ``hw-``; six of them are the six hardware claims of ``CLAIMS`` (the same finding and
+rule, measured on the hardware suite's experiments instead of the paper suite's options), the others are the
+experiments' findings the paper suite cannot show (docs/hardware.md).
+
 The tolerances are this project's reading of the paper's "about": a quarter of a peak of 4.5 mm/cycle, a tenth of a
 cycle of phase, ten percentage points of acceptance. A qualitative finding is a comparison between two conditions of
 the suite, measured as a difference (or a ratio) that the rule puts on the right side of zero (or one): Flaky's Ubar
@@ -74,6 +81,9 @@ class Claim:
     """one of RULES (see the module doc)."""
     source: str = ""
     """where the paper says it: 'Fig. 1F', 'SI Fig. S5C', 'Conclusion'."""
+    suite: str = ""
+    """the suite whose results it is measured on: '' the paper's study (benchmarks/paper.toml, and any suite the
+    report checks against CLAIMS), HARDWARE_SUITE the hardware twin's (benchmarks/paper-hardware.toml)."""
 
     def holds(self, value: float) -> bool:
         if not math.isfinite(value):
@@ -985,3 +995,311 @@ CLAIMS: tuple[Claim, ...] = (
           _landscape_measure("S6-damaged", _diagonal_distance), 0.1, "at most", "Fig. 3D; Adaptivity to Damage"),
 )
 """The paper's findings, statement by statement, in the order of docs/paper.md."""
+
+
+# --- the paper's experiments, on the hardware twin (benchmarks/paper-hardware.toml; docs/hardware.md) -------------
+
+HARDWARE_SUITE = "paper-hardware"
+"""the name of the suite whose results HARDWARE_CLAIMS are measured on (benchmarks/paper-hardware.toml)."""
+MIN_TRACK_PLACES = 2
+"""the fewest places along the track a claim about the track reads (scans NAME, NAME-at-1, ...)."""
+STOPPED = 0.5
+"""mm/cycle: a gait slower than this at a place of the track has stopped there (Fig. 2F: "a complete stop")."""
+TRACK_SPREAD = 0.25
+"""mm/cycle: the least difference of spreads over the track (hw-3-track) that shows one gait depends on the place
+and the other does not; the paper suite's hw-3-track asks only for a difference >= 0, which equal grounds meet."""
+
+
+def _track_names(tables: dict, name: str) -> list[str]:
+    """The suite's scans of one gait map along the track: ``name`` (at the start) and ``name-at-1``, ``name-at-2``,
+    ... (at other places: the environment's friction_field.offset), in that order."""
+    scans = _table(tables, "scans")
+    if scans.empty or "scan" not in scans:
+        return []
+    names = [str(n) for n in scans.scan.unique()]
+    at = sorted((n for n in names if n.startswith(f"{name}-at-") and n[len(name) + 4:].isdigit()),
+                key=lambda n: int(n[len(name) + 4:]))
+    return ([name] if name in names else []) + at
+
+
+def track_curves(tables: dict, name: str) -> tuple[np.ndarray, np.ndarray, str] | str:
+    """The complete 2-unit curves of ``_track_names(name)`` as ``(dphi, ubar[place, point])``, and what they are."""
+    scans = _table(tables, "scans")
+    curves, axis = [], None
+    for scan in _track_names(tables, name):
+        points = scans[scans.scan == scan]
+        if "dphi_2" not in points or "dphi_3" in points.dropna(axis=1, how="all"):
+            continue
+        if "samples" in points and len(points) < int(points.samples.iloc[0]):
+            continue  # an unfinished scan: its extremes may be missing
+        points = points.sort_values("dphi_2")
+        dphi = points.dphi_2.to_numpy(dtype=float)
+        if axis is not None and (len(dphi) != len(axis) or not np.allclose(dphi, axis)):
+            return f"the scans {name}, {name}-at-* have different phase grids"
+        axis = dphi
+        curves.append(points.ubar.to_numpy(dtype=float))
+    if not curves:
+        return f"the suite has no complete 2-unit scan {name} (or {name}-at-*)"
+    return axis, np.array(curves), f"scan {name} at {len(curves)} places of the track ({len(axis)} points each)"
+
+
+def track_maps(tables: dict, name: str) -> tuple[np.ndarray, np.ndarray, str] | str:
+    """The complete 3-unit landscapes of ``_track_names(name)`` as ``(grids[place, i, j], axis)``, and what they are."""
+    grids, axis = [], None
+    for scan in _track_names(tables, name):
+        found = landscape(tables, scan)
+        if isinstance(found, str):
+            continue
+        if axis is not None and (found[0].shape != grids[0].shape or not np.allclose(found[1], axis)):
+            return f"the scans {name}, {name}-at-* have different grids"
+        grids.append(found[0])
+        axis = found[1]
+    if not grids:
+        return f"the suite has no complete 3-unit scan {name} (or {name}-at-*)"
+    return np.array(grids), axis, f"scan {name} at {len(grids)} places of the track ({grids[0].size} points each)"
+
+
+def _track_curve_measure(quantity: Callable[[np.ndarray, np.ndarray], float], name: str = "hw-S2"):
+    """A measuring function of ``quantity(dphi, ubar)`` of the 2-unit curve averaged over the places of the track:
+    what the robot does at those phases wherever it is (the experiments' curve, Fig. 1G-H)."""
+    def measure(tables: dict) -> Measured | str:
+        found = track_curves(tables, name)
+        if isinstance(found, str):
+            return found
+        dphi, curves, on = found
+        value = quantity(dphi, curves.mean(axis=0))  # NaN: what is claimed is not there (no second maximum)
+        return Measured(value, f"the mean over {on}" + ("" if math.isfinite(value) else ": none found"))
+    return measure
+
+
+def _second_of(which: int):
+    """``quantity`` for _track_curve_measure: the phase (``which`` 0) or Ubar (1) of the curve's highest significant
+    local maximum below its global one (NaN without one: the claimed maximum is not there)."""
+    def quantity(dphi: np.ndarray, ubar: np.ndarray) -> float:
+        maxima = sorted(local_maxima(ubar), key=lambda m: -ubar[m[0]])
+        return float((dphi, ubar)[which][maxima[1][0]]) if len(maxima) >= 2 else math.nan
+    return quantity
+
+
+def _track_map_measure(quantity: Callable[[np.ndarray, np.ndarray], float], name: str = "hw-S3",
+                       places: int = 1):
+    """A measuring function of ``quantity(grids, axis)`` of the 3-unit landscapes at the places of the track
+    (``grids[place, i, j]``; at least ``places`` of them)."""
+    def measure(tables: dict) -> Measured | str:
+        found = track_maps(tables, name)
+        if isinstance(found, str):
+            return found
+        grids, axis, on = found
+        if len(grids) < places:
+            return f"{on}: a claim about the track needs {places} places or more"
+        value = quantity(grids, axis)
+        return Measured(value, on) if math.isfinite(value) else f"not defined on {on}"
+    return measure
+
+
+def _torus_distance(axis: np.ndarray, i: int, j: int, dphi_2: float, dphi_3: float) -> float:
+    d = np.abs((np.array([axis[i], axis[j]]) - np.array([dphi_2, dphi_3]) + 0.5) % 1.0 - 0.5)
+    return float(np.hypot(*d))
+
+
+def _mean_map_maximum_from(dphi_2: float, dphi_3: float):
+    """How far (in cycles, on the torus) the maximum of the mean landscape over the places lies from the point."""
+    def quantity(grids: np.ndarray, axis: np.ndarray) -> float:
+        i, j = np.unravel_index(int(np.argmax(grids.mean(axis=0))), grids.shape[1:])
+        return _torus_distance(axis, int(i), int(j), dphi_2, dphi_3)
+    return quantity
+
+
+def _over_places(reduce, dphi_2: float, dphi_3: float):
+    """``reduce`` over the places of the landscapes' values at (dphi_2, dphi_3)."""
+    return lambda grids, axis: float(reduce([_at(g, axis, dphi_2, dphi_3) for g in grids]))
+
+
+def _track_spread(grids: np.ndarray, axis: np.ndarray) -> float:
+    """The std over the places at (0.4, 0.2) minus that at (0.4, 0.8) (as hw-3-track on the paper suite)."""
+    return float(np.std([_at(g, axis, 0.4, 0.2) for g in grids]) - np.std([_at(g, axis, 0.4, 0.8) for g in grids]))
+
+
+def _mean_map(quantity: Callable[[np.ndarray, np.ndarray], float]):
+    return lambda grids, axis: quantity(grids.mean(axis=0), axis)
+
+
+def damaged_phase_share(grid: np.ndarray, axis: np.ndarray) -> float:
+    """How much the damaged unit 2's phase still matters on a landscape ``grid[i, j]`` (dphi_2 = axis[i], unit 2's
+    phase with unit 1 at 0): the mean over dphi_3 of the std of Ubar along dphi_2, over the std of the whole map. 0
+    when unit 2's phase changes nothing (a unit that only pumps air out of an open bellows, without vibration)."""
+    spread = float(np.std(grid))
+    return float(np.mean(np.std(grid, axis=0)) / spread) if spread > 0 else math.nan
+
+
+def density_modes(values, bandwidth: float = M.RIDGE_BANDWIDTH, prominence: float = PROMINENCE
+                  ) -> list[tuple[float, float]]:
+    """The modes of the Gaussian kernel density of ``values`` (standard deviation ``bandwidth``, on metrics.ridge's
+    grid of bandwidth / 20) that stand out by ``prominence`` of its highest density, as (where, density), the
+    highest first."""
+    x = np.asarray(values, dtype=float)
+    x = x[np.isfinite(x)]
+    if not len(x) or not bandwidth > 0:
+        return []
+    width = bandwidth / 20
+    reach = int(math.ceil(4 * bandwidth / width))
+    lo = x.min() - reach * width
+    counts = np.bincount(np.round((x - lo) / width).astype(np.int64))
+    counts = np.concatenate([counts, np.zeros(reach + 1)])
+    kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) * width / bandwidth) ** 2)
+    density = np.convolve(counts, kernel, mode="same")  # zero at both ends: the curve's wrap is no mode
+    found = [(lo + i * width, float(density[i])) for i, _ in local_maxima(density, prominence)]
+    return sorted(found, key=lambda mode: -mode[1])
+
+
+def second_mode(tables: dict, row: pd.Series) -> float:
+    """Where the second-highest mode of the distribution of the condition's per-step measured Ubar after step
+    LEARNED_AFTER lies (Fig. 1F's experiments: a second optimum); NaN with one mode only."""
+    steps = _steps_of(tables, row)
+    modes = density_modes(steps.ubar[steps.step > LEARNED_AFTER])
+    return float(modes[1][0]) if len(modes) >= 2 else math.nan
+
+
+def _second_mode_of(experiment: str):
+    """A measuring function of ``second_mode`` of the experiment's first condition: one mode only is a value (NaN)
+    that does not hold, not a claim left unmeasured."""
+    def measure(tables: dict) -> Measured | str:
+        found = _one(tables, experiment)
+        if isinstance(found, str):
+            return found
+        row, on = found
+        value = second_mode(tables, row)
+        return Measured(value, on if math.isfinite(value) else f"{on}: one mode only")
+    return measure
+
+
+def measured_ridge(tables: dict, row: pd.Series) -> float:
+    """The highest mode of the per-step measured Ubar after step LEARNED_AFTER (Fig. 1F's ridge, as the units
+    measured it)."""
+    steps = _steps_of(tables, row)
+    return M.ridge(steps.ubar[steps.step > LEARNED_AFTER].to_numpy(dtype=float))
+
+
+def acceptance_between(first: int, last: int) -> Callable[[dict, pd.Series], float]:
+    """The mean acceptance over every run's learning steps ``first`` to ``last``."""
+    def value(tables: dict, row: pd.Series) -> float:
+        steps = _steps_of(tables, row)
+        return float(steps.acceptance[(steps.step >= first) & (steps.step <= last)].mean())
+    return value
+
+
+def late_fall(first: int = 150, last: int = 250, window: int = 100) -> Callable[[dict, pd.Series], float]:
+    """The seed-averaged true Ubar over the last ``window`` steps minus that over steps ``first`` to ``last``:
+    negative when the mean falls late in learning (NaN when the runs end before ``last`` + ``window``)."""
+    def value(tables: dict, row: pd.Series) -> float:
+        steps = _steps_of(tables, row)
+        end = int(steps.step.max())
+        if end < last + window:
+            return math.nan
+        late = steps.ubar_true[steps.step > end - window].mean()
+        return float(late - steps.ubar_true[(steps.step >= first) & (steps.step <= last)].mean())
+    return value
+
+
+def acceptance_after_event(tables: dict, row: pd.Series) -> float:
+    """The mean acceptance over the WINDOW steps from the first event on."""
+    steps, event = _steps_of(tables, row), _event_step(row)
+    return float(steps.acceptance[(steps.step >= event) & (steps.step < event + WINDOW)].mean())
+
+
+def _hw(claim_id: str, scenario: str, statement: str, paper: float, unit: str, measure, tolerance: float, rule: str,
+        source: str) -> Claim:
+    return Claim(claim_id, f"{scenario} (hardware)", statement, paper, unit, measure, tolerance, rule, source,
+                 HARDWARE_SUITE)
+
+
+HARDWARE_CLAIMS: tuple[Claim, ...] = (
+    # hw-S2: the 2-unit curve along the track (Fig. 1G-H)
+    _hw("hw-peak", "hw-S2", "The experiments' 2-unit curve has its maximum at about 4.5 mm/cycle (measured: the "
+        "curve averaged over the places of the track).", 4.5, "mm/cycle",
+        _track_curve_measure(lambda d, u: float(np.max(u))), 1.0, "within", "Fig. 1G-H"),
+    _hw("hw-peak-at", "hw-S2", "... at a phase difference of about 0.4.", 0.4, "cycles",
+        _track_curve_measure(lambda d, u: float(d[np.argmax(u)])), 0.1, "phase", "Fig. 1G-H"),
+    _hw("hw-trough", "hw-S2", "With pump vibration (the hardware), the 2-unit curve is about -3 mm/cycle at its "
+        "minimum.", -3.0, "mm/cycle", _track_curve_measure(lambda d, u: float(np.min(u))), 1.0, "within",
+        "Fig. 1G-H"),
+    _hw("hw-trough-at", "hw-S2", "... near a phase difference of 0.6 (the reversed gait).", 0.6, "cycles",
+        _track_curve_measure(lambda d, u: float(d[np.argmin(u)])), 0.1, "phase", "Fig. 1G-H"),
+    _hw("hw-local-max", "hw-S2", "With pump vibration (the hardware), the 2-unit curve has a local maximum of about "
+        "1 mm/cycle ...", 1.0, "mm/cycle", _track_curve_measure(_second_of(1)), 0.5, "within", "Fig. 1F-H"),
+    _hw("hw-local-max-at", "hw-S2", "... near a phase difference of 0.9.", 0.9, "cycles",
+        _track_curve_measure(_second_of(0)), 0.1, "phase", "Fig. 1G-H"),
+    # hw-S1: 2 units learning (Fig. 1F)
+    _hw("hw-S1-ridge", "hw-S1", f"After about {LEARNED_AFTER} steps the experiments' 2-unit Ubar is distributed "
+        f"around 4.5 mm/cycle (measured: the highest mode of the per-step measured Ubar after step {LEARNED_AFTER}).",
+        4.5, "mm/cycle", _of("hw-S1", measured_ridge), 0.5, "within", "Fig. 1F"),
+    _hw("hw-S1-second-mode", "hw-S1", "... with a second optimum at about 1 mm/cycle (measured: the second-highest "
+        f"mode of that distribution, standing out by {PROMINENCE:.0%} of its density).", 1.0, "mm/cycle",
+        _second_mode_of("hw-S1"), 0.5, "within", "Fig. 1F; Results of Two Units"),
+    # hw-S3: the 3-unit landscape at places along the track (Fig. 2D-F; SI Figs. S3, S4A)
+    _hw("hw-3-gait", "hw-S3", "The 3-unit gait (0.4, 0.8) is a maximum of about 4.5 mm/cycle (measured: the "
+        "landscape averaged over the places of the track, there).", 4.5, "mm/cycle",
+        _track_map_measure(_mean_map(lambda g, a: _at(g, a, 0.4, 0.8))), 1.0, "within", "Fig. 2D-F"),
+    _hw("hw-3-maximum-at", "hw-S3", "... the experiments' global maximum (measured: distance of the averaged "
+        "landscape's maximum from (0.4, 0.8), on the torus).", 0.0, "cycles", _track_map_measure(
+            _mean_map_maximum_from(0.4, 0.8)), 0.1, "at most", "Fig. 2D"),
+    _hw("hw-3-track", "hw-S3", "The gait (0.4, 0.2) depends on where the robot is on the track, (0.4, 0.8) does not "
+        "(measured: std over the places of the track, there minus at (0.4, 0.8); unlike the paper suite's, a track "
+        f"the same everywhere does not pass: at least {TRACK_SPREAD:g} mm/cycle).", TRACK_SPREAD, "mm/cycle",
+        _track_map_measure(_track_spread, places=MIN_TRACK_PLACES), 0.0, "at least", "Fig. 2E-F; SI Figs. S3, S4A"),
+    _hw("hw-3-stops", "hw-S3", "The gait (0.4, 0.2) comes to a complete stop on some parts of the track (measured: "
+        "its lowest Ubar over the places).", 0.0, "mm/cycle", _track_map_measure(
+            _over_places(min, 0.4, 0.2), places=MIN_TRACK_PLACES), STOPPED, "within", "Fig. 2F; Movie S2"),
+    _hw("hw-3-goes", "hw-S3", "... and reaches about 2 mm/cycle on others (measured: its highest Ubar over the "
+        "places).", 2.0, "mm/cycle", _track_map_measure(_over_places(max, 0.4, 0.2), places=MIN_TRACK_PLACES), 1.0,
+        "within", "Fig. 2F; Movie S2"),
+    _hw("hw-3-robust", "hw-S3", "The gait (0.4, 0.8) keeps about 4.5 mm/cycle all along the track (measured: its "
+        "lowest Ubar over the places).", 4.5, "mm/cycle", _track_map_measure(
+            _over_places(min, 0.4, 0.8), places=MIN_TRACK_PLACES), 1.0, "at least", "Fig. 2E-F; Movie S2"),
+    # hw-S4: 3 units learning, Thermal and Flaky (Fig. 2A-B, 2G-H)
+    _hw("hw-thermal-improves", "hw-S4", "In the experiments too, 3-unit Thermal learning improves Ubar over the "
+        "first about 50 steps (measured: seed-averaged Ubar at steps 45-55 minus at steps 0-5).", 0.0, "mm/cycle",
+        _of("hw-S4", improvement, **T), 0.0, "at least", "Fig. 2A"),
+    _hw("hw-thermal-acceptance", "hw-S4", "The experiments' Thermal acceptance approaches zero soon after the "
+        "learning starts (measured: mean acceptance over steps 50-100).", 0.0, "of trials",
+        _of("hw-S4", acceptance_between(50, 100), **T), 0.1, "at most", "Fig. 2B"),
+    _hw("hw-thermal-falls", "hw-S4", "... and the mean Ubar decreases after about 200 steps (measured: seed-averaged "
+        "Ubar over the last 100 steps minus over steps 150-250).", -0.25, "mm/cycle", _of("hw-S4", late_fall(), **T),
+        0.0, "at most", "Fig. 2A"),
+    _hw("hw-flaky-level", "hw-S4", "With Flaky the experiments reach about 4 mm/cycle (measured: final Ubar).", 4.0,
+        "mm/cycle", _of("hw-S4", final_ubar, **F), 1.0, "within", "Fig. 2G"),
+    _hw("hw-flaky-acceptance", "hw-S4", "... accepting about 60% of the trials, whatever the step (measured: mean "
+        "acceptance).", 0.6, "of trials", _of("hw-S4", metric("acceptance_mean"), **F), 0.1, "within", "Fig. 2H"),
+    _hw("hw-flaky-ahead", "hw-S4", "On the hardware Flaky adapts to the noise and the track where Thermal does not "
+        "(measured: final Ubar, Flaky minus Thermal).", 0.0, "mm/cycle", _versus("hw-S4", final_ubar, F, T), 0.0,
+        "at least", "Fig. 2A, 2G; A More Robust Learning Strategy"),
+    # hw-S6: the needle removed at step 300 (Fig. 3; SI Fig. S7)
+    _hw("hw-damaged-optimum", "hw-S6", "After the damage the global optimum has units 2 and 3 actuating together "
+        "(measured: distance of the damaged landscape's maximum, averaged over the places of the track, from "
+        "dphi_2 = dphi_3).", 0.0, "cycles", _track_map_measure(_mean_map(_diagonal_distance), "hw-S6-damaged"), 0.1,
+        "at most", "Fig. 3D; Adaptivity to Damage"),
+    _hw("hw-damaged-phase", "hw-S6", "The damaged unit's phase still matters: by pumping it changes its friction "
+        "(measured: mean std of the damaged landscape along unit 2's phase over its whole std, averaged over the "
+        "places).", 0.3, "", _track_map_measure(_mean_map(damaged_phase_share), "hw-S6-damaged"), 0.0, "at least",
+        "Adaptivity to Damage; SI Fig. S7"),
+    _hw("hw-damage-thermal-stuck", "hw-S6", "After the damage Thermal gets stuck at a phase (measured: its mean "
+        f"acceptance over the {WINDOW} steps after the damage).", 0.0, "of trials",
+        _of("hw-S6", acceptance_after_event, **T), 0.1, "at most", "Fig. 3E; Movie S3"),
+    _hw("hw-damage-flaky-adapts", "hw-S6", "... while Flaky overcomes the damage by adapting its phases (measured: "
+        "Ubar from the damage on, Flaky minus Thermal).", 0.0, "mm/cycle", _versus("hw-S6", ubar_after_event, F, T),
+        0.0, "at least", "Fig. 3E-F; Movie S3"),
+    # hw-S8: 7 units (Fig. 4B)
+    _hw("hw-7-level", "hw-S8", "The experiments' 7-unit robot moves at about 2.5 mm/cycle after 300 steps (measured: "
+        "final Ubar of 300-step runs).", 2.5, "mm/cycle", _of("hw-S8", final_ubar, n_units=7, **T), 1.0, "within",
+        "Fig. 4B"),
+)
+"""The paper's experimental findings, checked on the hardware twin's results (benchmarks/paper-hardware.toml, the
+environment preset ``hardware``; docs/hardware.md lists them with the effects each needs)."""
+
+SUITE_CLAIMS: dict[str, tuple[Claim, ...]] = {HARDWARE_SUITE: HARDWARE_CLAIMS}
+"""The suites checked against claims of their own, by suite name."""
+
+
+def claims_for(suite: str | None) -> tuple[Claim, ...]:
+    """The claims a report on suite ``suite`` checks: the suite's own (SUITE_CLAIMS), else the paper's, CLAIMS."""
+    return SUITE_CLAIMS.get(suite or "", CLAIMS)

@@ -21,13 +21,13 @@ from morphbench.bench.cost import run_cost
 from morphbench.identity import config_identity, environment_id, identity, shape_id, shape_identity, stable_hash
 from morphbench.bench.model import SCAN_PART_POINTS, Experiment, RunSpec, ScanSpec
 from morphbench.errors import ConfigError
-from morphbench.experiment.config import physics_from_table, run_config_from_table
+from morphbench.experiment.config import environment_from_table, physics_from_table, run_config_from_table
 from morphbench.experiment.events import Event, parse_event
 from morphbench.experiment.run import RunConfig
 from morphbench.experiment.scan import (DEFAULT_CYCLES, DEFAULT_DISCARD, check_scan_size, scan_phases, wave_lags,
                                        wave_phases)
 from morphbench.files import is_file
-from morphbench.readers import check_keys, distinct, is_tables, params_from_table
+from morphbench.readers import check_keys, distinct, is_tables
 from morphbench.rules import check_plan_size, check_rule
 from morphbench.shapes import Shape, load_shape
 
@@ -132,7 +132,7 @@ def expand_experiment(table: dict, names: dict[str, str], name: str, description
                 exc = ConfigError(src, exc.key, f"{exc.expected} (shape {ctx.load(ctx.base / combo['shape']).name})",
                                   exc.got)
             raise _named(exc, where, found, names) from None
-        label = label or _settings_label({k: v for k, v in environment.items() if k != "noise"})
+        label = label or environment_label(environment)
         ground = environment_id(config.environment)
         if grounds.setdefault(label, ground) != ground:
             raise ConfigError(src, f"{env_key}.name", "a label no other environment of the experiment has (give each "
@@ -173,6 +173,18 @@ def _count(value: Any) -> int:
 def events_summary(events: tuple[Event, ...]) -> str:
     """One text for a condition column: ``step 150 damage unit=2 mode=no-inflate; step 300 noise sigma=0.5``."""
     return "; ".join(f"step {e.step} {e.describe()}" for e in events) or "none"
+
+
+def environment_label(environment: dict | str) -> str:
+    """The label of an environment without a name: its preset, then the settings written beside it but the noise
+    (``hardware, friction_field.offset=0.5``), or the settings alone (``friction_scale=1.5``, ``default``)."""
+    if isinstance(environment, str):
+        return environment
+    settings = {k: v for k, v in environment.items() if k not in ("noise", "preset")}
+    if "preset" not in environment:
+        return _settings_label(settings)
+    preset = str(environment["preset"])
+    return ", ".join([preset, _settings_label(settings)]) if settings else preset
 
 
 def _settings_label(table: dict, prefix: str = "") -> str:
@@ -235,16 +247,21 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
     seed = check_rule(P.SEED, "", table.get("seed", 0), src, f"{where}.seed")
     physics, physics_label = _scan_physics(table.get("physics", "default"), src, f"{where}.physics")
     environment_table = table.get("environment", {})
+    if isinstance(environment_table, str) and environment_table in P.ENVIRONMENT_PRESETS:  # a preset's name
+        environment_table = {"preset": environment_table}
     if not isinstance(environment_table, dict):
-        raise ConfigError(src, f"{where}.environment", "a table of EnvironmentParams fields", environment_table)
+        raise ConfigError(src, f"{where}.environment", "a table of EnvironmentParams fields or an environment "
+                                                       f"preset's name ({', '.join(P.ENVIRONMENT_PRESETS)})",
+                          environment_table)
     if "noise" in environment_table:
         raise ConfigError(src, f"{where}.environment.noise", "no noise in a scan's environment: scans measure the "
                                                               "true velocity", environment_table["noise"])
-    environment = params_from_table(P.EnvironmentParams, environment_table, src, f"{where}.environment")
+    environment = environment_from_table(environment_table, src, f"{where}.environment")
     for key in ("clock_drift", "clock_offset"):
-        if getattr(environment, key):
+        if environment_table.get(key):
             raise ConfigError(src, f"{where}.environment.{key}", "0 in a scan: a scan measures fixed phases, on one "
-                              "clock", getattr(environment, key))
+                              "clock", environment_table[key])
+    environment = P.scan_environment(environment)  # a preset's ground and pumps, without its noise and clocks
     damage = None
     if "damage" in table:
         damage = parse_event(table["damage"], src, f"{where}.damage", shape.n_units, len(shape.links), kind="damage")
@@ -276,7 +293,7 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
     columns = {"scan": name, "shape": shape.name, "shape_id": shape_id(shape), "n_units": shape.n_units,
                "resolution": resolution, "samples": len(phases), "waves": waves or 0, "cycles": cycles,
                "discard": discard, "seed": seed, "physics": physics_label,
-               "environment": _settings_label(environment_table), "environment_id": environment_id(environment),
+               "environment": environment_label(environment_table), "environment_id": environment_id(environment),
                "damage": damage.describe() if damage else "none"}
     return ScanSpec(scan_id, name, shape, columns, physics, cycles, discard, phases, environment, damage)
 

@@ -118,7 +118,7 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None,
     if plan["scans"]:
         lines += ["## Scans", ""]
         lines += _scan_section(plan, scans, figures)
-    lines += _claims_section({**tables, "metrics": metrics, "curves": curves})
+    lines += _claims_section({**tables, "metrics": metrics, "curves": curves}, plan["suite"])
     failed = runs[runs.status == "failed"]
     failed_scans = tables["jobs"][(tables["jobs"].kind == "scan") & (tables["jobs"].status == "failed")]
     if len(failed) or len(failed_scans):
@@ -569,21 +569,27 @@ def _duration(seconds: float) -> str:
 
 
 def claims_of(out: str | Path) -> list[C.Verdict]:
-    """The paper's claims measured on the results directory ``out``, as its report measures them."""
+    """The paper's claims measured on the results directory ``out``, as its report measures them (the claims of its
+    suite: ``claims.claims_for``)."""
     store = Store(out)
-    tables = store.consolidate(store.require_plan())
+    plan = store.require_plan()
+    tables = store.consolidate(plan)
     steps = tables["steps"]
     return C.check({**tables, "metrics": M.condition_metrics(steps, tables["runs"], tables["scans"]),
-                    "curves": M.curves(steps)})
+                    "curves": M.curves(steps)}, C.claims_for(plan.get("suite")))
 
 
-def _claims_section(tables: dict[str, pd.DataFrame]) -> list[str]:
-    """The paper's quantitative statements against what the tables measure (morphbench.bench.claims)."""
+def _claims_section(tables: dict[str, pd.DataFrame], suite: str | None = None) -> list[str]:
+    """The paper's quantitative statements against what the tables measure (morphbench.bench.claims): those of
+    suite ``suite`` (``claims.claims_for``: the hardware twin's, or the paper's)."""
+    claims = C.claims_for(suite)
+    which = ("The paper's experimental findings, on the hardware twin (docs/hardware.md lists each with its figure "
+             "and the effects it needs)" if claims is not C.CLAIMS else
+             "The paper's findings (Oliveri et al., PNAS 2021; docs/paper.md lists each with its figure)")
     lines = ["## Claims", "",
-             "The paper's findings (Oliveri et al., PNAS 2021; docs/paper.md lists each with its figure), each "
-             "measured on this suite's tables: 'holds' applies the rule to the measured value; 'not measured' says "
-             "what the suite lacks.", ""]
-    verdicts = C.check(tables)
+             f"{which}, each measured on this suite's tables: 'holds' applies the rule to the measured value; 'not "
+             "measured' says what the suite lacks.", ""]
+    verdicts = C.check(tables, claims)
     held = sum(v.holds is True for v in verdicts)
     unmeasured = sum(v.holds is None for v in verdicts)
     small = sum(v.holds is None and v.reason.startswith(C.TOO_SMALL) for v in verdicts)

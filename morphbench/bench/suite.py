@@ -21,8 +21,8 @@ A suite file is TOML::
     learner = {name = ["thermal", "flaky"], step_size = [0.1, 0.025]}   # name and LearnerParams fields
     scans = ["S3", "S3-damaged"]        # optional: the scans its figures draw its runs on (see "Scans of an
                                         #   experiment" below); not a run-configuration key, never an axis
-    [experiment.environment]            # EnvironmentParams fields, as a run file's [environment]
-    noise = [0.0, 0.5, 1.0]             # mm/cycle, Gaussian noise on each measured velocity
+    [experiment.environment]            # EnvironmentParams fields, as a run file's [environment] (preset =
+    noise = [0.0, 0.5, 1.0]             #   "hardware" and fields on top; or environment = "hardware" alone)
     [experiment.physics]                # preset (default, fast, reference, quasistatic) and PhysicsParams fields
     preset = "default"
     [experiment.sensor]                 # SensorParams fields; suites measure with kind = "ideal" unless told
@@ -42,7 +42,9 @@ A suite file is TOML::
     cycles = 12                         # cycles measured per point (default 12), after `discard` (default 2)
     physics = "default"                 # a preset, or a table as an experiment's: {preset = "fast", timestep = 0.005}
     environment = {friction_scale = 1.5}   # optional: the EnvironmentParams the scan runs in (no noise: scans
-                                           #   measure the true velocity)
+                                           #   measure the true velocity), or a preset: "hardware", or
+                                           #   {preset = "hardware", friction_field = {offset = 0.5}}, whose
+                                           #   ground and pumps it measures (without its noise and clocks)
     damage = {unit = 2, mode = "no-inflate"}   # optional: the assembly is damaged from the start, as a damage event
                                                #   does it (morphbench.experiment.events: the same fields and checks)
 
@@ -55,11 +57,11 @@ an experiment's last step is refused too (it would never happen). ``seeds = N`` 
 run file does not have.
 
 Environments: a table may have a ``name``, the label of the environment in the condition column ``environment``;
-without one the label lists the table's settings but its noise, which has a column of its own
-(``friction_field.amplitude=0.3``, or ``default``). Different grounds need different labels. The column
-``environment_id`` is a hash of the ground (the environment without noise). The column ``physics`` is the preset,
-followed by any fields set beside it (``quasistatic, timestep=0.005``). The column ``events`` summarises the events
-(``step 150 damage unit=2 mode=no-inflate``; ``none`` without events).
+without one the label is its preset, if any, then the table's settings but its noise, which has a column of its own
+(``friction_field.amplitude=0.3``, ``hardware``, ``hardware, vibration=0.7``, or ``default``). Different grounds
+need different labels. The column ``environment_id`` is a hash of the ground (the environment without noise). The
+column ``physics`` is the preset, followed by any fields set beside it (``quasistatic, timestep=0.005``). The column
+``events`` summarises the events (``step 150 damage unit=2 mode=no-inflate``; ``none`` without events).
 
 The first suites' keys are still read, as aliases of the run-configuration keys: ``shapes`` (``shape``),
 ``learners`` (``learner.name``), ``[experiment.learner_params]`` (``learner.*``), ``noise`` (``environment.noise``,

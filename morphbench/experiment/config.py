@@ -13,8 +13,8 @@
     [sensor]                  # SensorParams fields
     kind = "ideal"
 
-    [environment]             # EnvironmentParams fields
-    noise = 0.5               # mm/cycle
+    [environment]             # preset = "default" | "hardware" (optional), and EnvironmentParams fields on top;
+    noise = 0.5               # mm/cycle            or, above the tables, environment = "hardware" alone
     vibration = 0.8
     [environment.friction_field]
     amplitude = 0.3
@@ -29,8 +29,10 @@
     mode = "no-inflate"
 
 ``morphbench run FILE`` takes a run configuration or a bare morphology file (then everything else is default);
-command-line options override the file. A suite experiment (morphbench.bench.suite) is a run configuration whose
-values may be lists; each combination is read by ``run_config_from_table``.
+command-line options override the file. An environment preset (``params.ENVIRONMENT_PRESETS``) is a whole
+EnvironmentParams named in one word; the fields written beside it replace the preset's, a sub-table's field by
+field. A suite experiment (morphbench.bench.suite) is a run configuration whose values may be lists; each
+combination is read by ``run_config_from_table``.
 """
 
 from __future__ import annotations
@@ -45,6 +47,8 @@ from morphbench.experiment.events import parse_events
 from morphbench.experiment.run import RunConfig
 from morphbench.learning import load_learner_class
 from morphbench.params import (
+    ENVIRONMENT_PRESET,
+    ENVIRONMENT_PRESETS,
     PHYSICS_PRESET,
     PHYSICS_PRESETS,
     SEED,
@@ -63,19 +67,28 @@ from morphbench.shapes import Shape, load_shape, read_toml, shape_from_table
 RUN_KEYS = {"description", "shape", "steps", "seed", "learner", "sensor", "environment", "physics", "events"}
 
 
-def load_run_config(path: str | Path, physics: str | None = None) -> RunConfig:
+def load_run_config(path: str | Path, physics: str | None = None, environment: str | None = None) -> RunConfig:
     """A run configuration file, or a morphology file taken as a run with every default. ``physics``, a preset's name
-    (``run --physics``), replaces the file's preset and backend; the file's other ``[physics]`` fields stay."""
+    (``run --physics``), replaces the file's preset and backend; the file's other ``[physics]`` fields stay.
+    ``environment``, an environment preset's name (``run --environment``), replaces the file's preset; the fields
+    the file sets in ``[environment]`` stay on top of it."""
     path = Path(path)
     table = read_toml(path, "run configuration or morphology file")
     if physics is not None:
         check_rule(PHYSICS_PRESET, "", physics, "--physics", "physics")
+    if environment is not None:
+        check_rule(ENVIRONMENT_PRESET, "", environment, "--environment", "environment")
     if "assembly" in table:
         shape = shape_from_table(table, source=str(path), default_name=path.stem)
-        return RunConfig(shape=shape, physics=PHYSICS_PRESETS[physics or "default"])
+        return RunConfig(shape=shape, physics=PHYSICS_PRESETS[physics or "default"],
+                         environment=ENVIRONMENT_PRESETS[environment or "default"])
     if physics is not None and isinstance(table.get("physics", {}), dict):
         own = {k: v for k, v in table.get("physics", {}).items() if k not in ("preset", "backend")}
         table = {**table, "physics": {"preset": physics, **own}}
+    if environment is not None and isinstance(table.get("environment", {}), (dict, str)):
+        own = table.get("environment", {})
+        own = {k: v for k, v in own.items() if k != "preset"} if isinstance(own, dict) else {}
+        table = {**table, "environment": {"preset": environment, **own}}
     return run_config_from_table(table, str(path), base=path.parent)
 
 
@@ -109,7 +122,7 @@ def run_config_from_table(table: dict[str, Any], source: str, base: Path,
         learner=learner,
         learner_params=params_from_table(LearnerParams, learner_table, source, "learner", learner_defaults(learner)),
         sensor=params_from_table(SensorParams, _table(table, "sensor", source), source, "sensor"),
-        environment=params_from_table(EnvironmentParams, _table(table, "environment", source), source, "environment"),
+        environment=environment_from_table(table.get("environment", {}), source, "environment"),
         events=parse_events(table.get("events", []), source, shape.n_units, len(shape.links)),
         physics=physics_from_table(_table(table, "physics", source), source, "physics"),
         steps=check_rule(STEPS, "", table.get("steps", RunConfig.steps), source, "steps"),
@@ -173,6 +186,19 @@ def physics_from_table(table: dict[str, Any], source: str, section: str) -> Phys
     preset = check_rule(PHYSICS_PRESET, "", table.pop("preset", "default"), source, f"{section}.preset")
     overrides = params_from_table(PhysicsParams, table, source, section)
     return dataclasses.replace(PHYSICS_PRESETS[preset], **{key: getattr(overrides, key) for key in table})
+
+
+def environment_from_table(value: Any, source: str, section: str) -> EnvironmentParams:
+    """A table of EnvironmentParams fields, on top of its ``preset`` if it names one (``preset = "hardware"``: its
+    ``friction_field`` and ``ground`` sub-tables field by field), or a preset's name alone (``"hardware"``)."""
+    if isinstance(value, str) and value in ENVIRONMENT_PRESETS:
+        return ENVIRONMENT_PRESETS[value]
+    if not isinstance(value, dict):
+        raise ConfigError(source, section, "a table of EnvironmentParams fields or an environment preset's name ("
+                          f"{', '.join(ENVIRONMENT_PRESETS)})", value)
+    table = dict(value)
+    preset = check_rule(ENVIRONMENT_PRESET, "", table.pop("preset", "default"), source, f"{section}.preset")
+    return params_from_table(EnvironmentParams, table, source, section, ENVIRONMENT_PRESETS[preset])
 
 
 def _table(table: dict[str, Any], key: str, source: str) -> dict[str, Any]:

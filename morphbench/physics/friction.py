@@ -17,7 +17,8 @@ class FrictionField:
     """f(x, y) = sum_m a_m cos(2 pi (kx_m x + ky_m y) / period + theta_m), scaled so that max |f| = 1.
 
     Wave numbers are integers (so f repeats with ``period``) up to period / correlation_length, with amplitudes that
-    fall off with wave number, so features are no smaller than the correlation length.
+    fall off with wave number, so features are no smaller than the correlation length. A field with an ``offset`` is
+    the field without one read at x + offset.
     """
 
     def __init__(self, params: FrictionFieldParams):
@@ -41,6 +42,8 @@ class FrictionField:
         else:
             peak = np.abs(self(grid, np.zeros_like(grid))).max()
         self._scale = 1.0 / peak
+        if params.offset:  # f(x + offset): the same field (its scale measured above), read further along the track
+            self._theta = self._theta + (2 * np.pi / params.period) * self._k[:, 0] * params.offset
 
     def __call__(self, x, y) -> np.ndarray:
         """f at the given points (m); arrays of equal shape."""
