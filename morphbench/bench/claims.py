@@ -1137,18 +1137,11 @@ def density_modes(values, bandwidth: float = M.RIDGE_BANDWIDTH, prominence: floa
     """The modes of the Gaussian kernel density of ``values`` (standard deviation ``bandwidth``, on metrics.ridge's
     grid of bandwidth / 20) that stand out by ``prominence`` of its highest density, as (where, density), the
     highest first."""
-    x = np.asarray(values, dtype=float)
-    x = x[np.isfinite(x)]
-    if not len(x) or not bandwidth > 0:
+    grid = M.kernel_density(values, bandwidth)
+    if grid is None:
         return []
-    width = bandwidth / 20
-    reach = int(math.ceil(4 * bandwidth / width))
-    lo = x.min() - reach * width
-    counts = np.bincount(np.round((x - lo) / width).astype(np.int64))
-    counts = np.concatenate([counts, np.zeros(reach + 1)])
-    kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) * width / bandwidth) ** 2)
-    density = np.convolve(counts, kernel, mode="same")  # zero at both ends: the curve's wrap is no mode
-    found = [(lo + i * width, float(density[i])) for i, _ in local_maxima(density, prominence)]
+    where, density = grid  # zero at both ends: the curve's wrap is no mode
+    found = [(float(where[i]), float(density[i])) for i, _ in local_maxima(density, prominence)]
     return sorted(found, key=lambda mode: -mode[1])
 
 

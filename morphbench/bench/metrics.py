@@ -165,12 +165,19 @@ def curves(steps: pd.DataFrame, column: str = "ubar_true") -> pd.DataFrame:
 
 def ridge(values, bandwidth: float = RIDGE_BANDWIDTH) -> float:
     """The mode of the Gaussian kernel density of ``values`` with standard deviation ``bandwidth``: where a heat map
-    of the distribution is brightest. Computed on a grid of bandwidth / 20 (values binned on it, the kernel convolved
-    over the bins), so it is exact to that grid; NaN without a finite value."""
+    of the distribution is brightest, exact to kernel_density's grid; NaN without a finite value."""
+    grid = kernel_density(values, bandwidth)
+    return math.nan if grid is None else float(grid[0][int(np.argmax(grid[1]))])
+
+
+def kernel_density(values, bandwidth: float = RIDGE_BANDWIDTH) -> tuple[np.ndarray, np.ndarray] | None:
+    """The Gaussian kernel density (standard deviation ``bandwidth``) of the finite ``values``, unnormalised, on a
+    grid of bandwidth / 20 (values binned on it, the kernel convolved over the bins) reaching 4 bandwidths beyond
+    them, zero at both ends: (grid points, density), or None without a finite value or a positive bandwidth."""
     x = np.asarray(values, dtype=float)
     x = x[np.isfinite(x)]
     if not len(x) or not bandwidth > 0:
-        return math.nan
+        return None
     width = bandwidth / 20
     reach = int(math.ceil(4 * bandwidth / width))
     lo = x.min() - reach * width
@@ -178,7 +185,7 @@ def ridge(values, bandwidth: float = RIDGE_BANDWIDTH) -> float:
     counts = np.concatenate([counts, np.zeros(reach + 1)])
     kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) * width / bandwidth) ** 2)
     density = np.convolve(counts, kernel, mode="same")
-    return float(lo + int(np.argmax(density)) * width)
+    return lo + np.arange(len(density)) * width, density
 
 
 def step_distribution(steps: pd.DataFrame, after: int = LEARNED_AFTER, column: str = "ubar_true",
