@@ -60,9 +60,11 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from morphbench.experiment.scan import wave_lags, wave_phases
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import credit  # noqa: E402  (a sibling script: the fixed-phase measurement of a phase change)
-from waves import CSV as WAVES, CYCLES as WAVE_CYCLES, DISCARD as WAVE_DISCARD, grid_places  # noqa: E402
+from waves import CSV as WAVES, CYCLES as WAVE_CYCLES, DISCARD as WAVE_DISCARD, wave_ubar  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "scaling.md"
@@ -153,7 +155,7 @@ def base_phases(assembly: Assembly, base: int, seed: int, lag: float) -> np.ndar
     """Base 0 is the travelling wave of lag ``lag`` (the unit in column c at c * lag mod 1), base b >= 1 the b-th
     random phase vector."""
     if base == 0:
-        return np.mod(lag * grid_places(shape_of(assembly.name))[0], 1.0)
+        return wave_phases(shape_of(assembly.name), [lag])[0]
     return np.random.default_rng([seed, 1, assembly.n_units, base]).random(assembly.n_units)
 
 
@@ -329,10 +331,8 @@ def _learn(job) -> list[float]:
 
 
 def _wave(job) -> float:
-    from morphbench.experiment.scan import velocity_at
-
     _, name, phases = job
-    return float(np.mean(velocity_at(shape_of(name), phases, cycles=WAVE_CYCLES, discard=WAVE_DISCARD)))
+    return wave_ubar((str(BY_NAME[name].path), phases))
 
 
 WORK: dict[str, Callable] = {"sim": _simulate, "learn": _learn, "wave": _wave}
@@ -411,7 +411,7 @@ def best_waves(assemblies: list[Assembly], workers: int, resolution: int = 40,
     ``resolution`` lags measured here as waves.py measures them."""
     known = read_waves(path)
     missing = [a for a in assemblies if a.name not in known]
-    lags = np.arange(resolution) / resolution
+    lags = wave_lags(resolution)
     jobs = [("wave", a.name, base_phases(a, 0, 0, lag)) for a in missing for lag in lags]
     values = np.array(execute(jobs, workers, "best waves")).reshape(len(missing), resolution) if missing else []
     out = {a.name: (*known[a.name], False) for a in assemblies if a.name in known}

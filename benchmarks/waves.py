@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from morphbench.experiment.scan import grid_places as grid_places, wave_lags, wave_phases  # grid_places: its tests
+from morphbench.experiment.scan import wave_lags, wave_phases
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "morphologies.md"
@@ -46,7 +46,9 @@ def points(shape, resolution: int, samples: int, seed: int) -> list[tuple[str, f
     return out + [("random", np.nan, rng.random(shape.n_units)) for _ in range(samples)]
 
 
-def _ubar(args) -> float:
+def wave_ubar(args) -> float:
+    """The mean true velocity of the units (mm/cycle) of the shape in morphology file ``path`` at ``phases``,
+    ``(path, phases)``, as this script measures a point (CYCLES after DISCARD); benchmarks/scaling_causes.py too."""
     path, phases = args
     from morphbench.experiment.scan import velocity_at
     from morphbench.shapes import load_shape
@@ -74,7 +76,7 @@ def measure(resolution: int, samples: int, seed: int, workers: int) -> list[dict
     order = sorted(range(len(jobs)), key=lambda j: -len(jobs[j][1]))  # the largest sheets first
     values = np.empty(len(jobs))
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        for j, ubar in zip(order, pool.map(_ubar, [jobs[j] for j in order], chunksize=2)):
+        for j, ubar in zip(order, pool.map(wave_ubar, [jobs[j] for j in order], chunksize=2)):
             values[j] = ubar
     rows = []
     for shape in shapes:

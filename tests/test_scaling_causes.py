@@ -13,6 +13,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from morphbench.experiment.scan import grid_places
+
 from conftest import BENCHMARKS_DIR, ROOT
 
 
@@ -138,7 +140,7 @@ def test_the_draws_are_seeded():
 def test_the_bases_a_wave_and_seeded_random_phases():
     sheet = S.BY_NAME["sheet-4x4"]
     wave = S.base_phases(sheet, 0, seed=0, lag=0.25)
-    columns, _ = S.grid_places(S.shape_of(sheet.name))
+    columns, _ = grid_places(S.shape_of(sheet.name))
     assert wave == pytest.approx(np.mod(0.25 * columns, 1.0))
     random = S.base_phases(sheet, 1, seed=0, lag=0.25)
     assert np.array_equal(random, S.base_phases(sheet, 1, seed=0, lag=0.4))

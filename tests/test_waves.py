@@ -8,6 +8,8 @@ import importlib.util
 import numpy as np
 import pytest
 
+from morphbench.experiment.scan import grid_places
+
 from conftest import BENCHMARKS_DIR
 
 
@@ -23,7 +25,7 @@ def test_waves_run_from_the_front_back():
 
     script = _script()
     shape = load_shape(BENCHMARKS_DIR / "shapes" / "sheet-4x4.toml")
-    columns, rows = script.grid_places(shape)
+    columns, rows = grid_places(shape)
     xy = np.array([shape.bodies[body].position[:2] for body in shape.units])
     assert sorted(set(columns)) == sorted(set(rows)) == [0, 1, 2, 3]
     assert np.all(xy[columns == 0, 0] == xy[:, 0].max())  # column 0 is the front (heading +x)
@@ -41,11 +43,11 @@ def test_a_wave_along_the_heading_moves_a_sheet_straight():
 
     script = _script()
     shape = load_shape(BENCHMARKS_DIR / "shapes" / "sheet-2x2.toml")
-    columns, _ = script.grid_places(shape)
+    columns, _ = grid_places(shape)
     motion = motion_at(shape, np.mod(0.3 * columns, 1.0), cycles=4, discard=2)
     assert motion.centroid[0] > 0.5  # mm/cycle
     assert abs(motion.centroid[1]) < 1e-9 and abs(motion.turning) < 1e-9
-    assert script._ubar((str(BENCHMARKS_DIR / "shapes" / "sheet-2x2.toml"), np.mod(0.3 * columns, 1.0))) == \
+    assert script.wave_ubar((str(BENCHMARKS_DIR / "shapes" / "sheet-2x2.toml"), np.mod(0.3 * columns, 1.0))) == \
         pytest.approx(float(np.mean(motion.units)))
 
 
