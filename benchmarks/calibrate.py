@@ -313,18 +313,7 @@ def claim_distance(claim, value: float) -> float:
     for a value that is not finite)."""
     if value is None or not math.isfinite(value):
         return CAP
-    if claim.rule == "within":
-        excess = abs(value - claim.paper) - claim.tolerance
-    elif claim.rule == "phase":
-        d = abs(value - claim.paper) % 1.0
-        excess = min(d, 1.0 - d) - claim.tolerance
-    elif claim.rule == "at most":
-        excess = value - (claim.paper + claim.tolerance)
-    elif claim.rule == "at least":
-        excess = (claim.paper - claim.tolerance) - value
-    else:
-        raise ValueError(f"claim {claim.id}: unknown rule {claim.rule!r}")
-    return min(CAP, max(0.0, excess) / CLAIM_SCALE.get(claim.unit, 1.0))
+    return min(CAP, max(0.0, claim.excess(value)) / CLAIM_SCALE.get(claim.unit, 1.0))
 
 
 def hardware_score(verdicts) -> tuple[float, list[tuple[str, float, float, bool]]]:

@@ -86,17 +86,22 @@ class Claim:
     report checks against CLAIMS), HARDWARE_SUITE the hardware twin's (benchmarks/paper-hardware.toml)."""
 
     def holds(self, value: float) -> bool:
+        return self.excess(value) <= 0.0
+
+    def excess(self, value: float) -> float:
+        """How far ``value`` lies beyond the rule's bound, in the claim's unit: <= 0 exactly when the claim holds
+        (the calibration scores a candidate by it); infinite for a value that is not finite."""
         if not math.isfinite(value):
-            return False
+            return math.inf
         if self.rule == "within":
-            return abs(value - self.paper) <= self.tolerance
+            return abs(value - self.paper) - self.tolerance
         if self.rule == "phase":
             distance = abs(value - self.paper) % 1.0
-            return min(distance, 1.0 - distance) <= self.tolerance
+            return min(distance, 1.0 - distance) - self.tolerance
         if self.rule == "at most":
-            return value <= self.paper + self.tolerance
+            return value - (self.paper + self.tolerance)
         if self.rule == "at least":
-            return value >= self.paper - self.tolerance
+            return (self.paper - self.tolerance) - value
         raise ValueError(f"claim {self.id}: rule {self.rule!r} is not one of {RULES}")
 
     def rule_text(self) -> str:
