@@ -186,9 +186,8 @@ def test_the_command_line_runs_and_scans_on_the_preset(tmp_path, capsys):
 # --- benchmarks/calibrate.py --targets hardware (the search itself is not run here) ---------------------------------
 
 
-@pytest.fixture(scope="module")
-def calibrate():
-    spec = importlib.util.spec_from_file_location("calibrate_script", BENCHMARKS_DIR / "calibrate.py")
+def _script(name: str):
+    spec = importlib.util.spec_from_file_location(f"{name}_script", BENCHMARKS_DIR / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # its dataclasses look their module up while it loads
     try:
@@ -196,6 +195,11 @@ def calibrate():
     finally:
         del sys.modules[spec.name]
     return module
+
+
+@pytest.fixture(scope="module")
+def calibrate():
+    return _script("calibrate")
 
 
 def _claim(rule: str, paper: float, tolerance: float, unit: str = "mm/cycle") -> C.Claim:
@@ -273,3 +277,20 @@ def test_the_ablation_switches_each_effect_off_alone_and_tabulates_the_verdicts(
     assert calibrate.ablation_table(rows) == ["| claim | preset | no vibration |", "|---|---|---|",
                                               "| `hw-a` | holds | no (1.5) |", "| `hw-b` | not measured | holds |",
                                               "| `hw-c` | no (none found) | holds |"]
+
+
+# --- benchmarks/hardware_curve.py: the 2-unit curve's claims over the vibration and the field ------------------------
+
+
+def test_the_curve_sweep_measures_the_suites_places_by_its_claims_and_without_effects_the_curve_is_symmetric():
+    sweep = _script("hardware_curve")
+    assert [p.environment.friction_field.offset for p in sweep.places()] == [0.0, 0.5, 1.0, 1.5]
+    bare = sweep.measure("default", 1.0, 0.0, 1)  # no vibration, a uniform ground: the model's symmetric curve
+    assert set(bare) == set(sweep.CURVE_CLAIMS)
+    assert bare["hw-peak"][0] == pytest.approx(-bare["hw-trough"][0], rel=0.1)
+    assert bare["hw-peak-at"][0] + bare["hw-trough-at"][0] == pytest.approx(1.0, abs=0.03)
+    assert math.isnan(bare["hw-local-max"][0]) and not bare["hw-local-max"][1]
+    shaken = sweep.measure("default", 0.8, 0.3, 1)  # the preset's own values: the asymmetry (docs/hardware.md)
+    assert shaken["hw-trough"][1] and not bare["hw-trough"][1]
+    page = sweep.page([{"physics": "default", "vibration": 1.0, "amplitude": 0.0, **bare}], "cmd", 1.0)
+    assert "| default | 1 | 0 |" in page and "all six hold: 0 of 1" in page
