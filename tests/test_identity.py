@@ -3,6 +3,7 @@ left out of what is hashed while it has its default, whatever dataclass holds it
 actuator), and hashed as soon as it is set."""
 
 import dataclasses
+from pathlib import Path
 
 import pytest
 
@@ -56,3 +57,23 @@ def test_run_ids_stay_until_a_later_field_is_set():
     assert config_identity(drifting, "default")["environment"]["clock_drift"] == 0.01
     stiffer = dataclasses.replace(shape, actuator=dataclasses.replace(shape.actuator, open_stiffness=40.0))
     assert shape_id(stiffer) != shape_id(shape)
+
+
+def test_a_ground_id_is_the_ground_and_pumps_alone_so_runs_with_clocks_find_their_scans():
+    """environment_id hashes what a scan of the environment measures (params.scan_environment): the measurement
+    noise and the units' clocks leave it as it is, the pumps' vibration and the friction do not. So the hardware
+    suite's runs (noise, clocks of their own) share the ground of its scans (no noise, one clock)."""
+    from morphbench.bench.suite import load_suite
+    from morphbench.identity import environment_id
+    from morphbench.params import HARDWARE_ENVIRONMENT, scan_environment
+
+    ground = environment_id(EnvironmentParams())
+    assert environment_id(EnvironmentParams(noise=0.5, clock_drift=0.01, clock_offset=1.0)) == ground
+    assert environment_id(EnvironmentParams(vibration=0.8)) != ground
+    assert environment_id(EnvironmentParams(friction_scale=1.5)) != ground
+    assert environment_id(HARDWARE_ENVIRONMENT) == environment_id(scan_environment(HARDWARE_ENVIRONMENT))
+    suite = load_suite(Path(__file__).resolve().parents[1] / "benchmarks" / "paper-hardware.toml")
+    scan = next(s for s in suite.scans if s.name == "hw-S3")
+    experiment = next(e for e in suite.experiments if e.name == "hw-S4")
+    grounds = {suite.runs[run_id].condition["environment_id"] for run_id in experiment.run_ids}
+    assert grounds == {scan.columns["environment_id"]}

@@ -59,9 +59,10 @@ run file does not have.
 Environments: a table may have a ``name``, the label of the environment in the condition column ``environment``;
 without one the label is its preset, if any, then the table's settings but its noise, which has a column of its own
 (``friction_field.amplitude=0.3``, ``hardware``, ``hardware, vibration=0.7``, or ``default``). Different grounds
-need different labels. The column ``environment_id`` is a hash of the ground (the environment without noise). The
-column ``physics`` is the preset, followed by any fields set beside it (``quasistatic, timestep=0.005``). The column
-``events`` summarises the events (``step 150 damage unit=2 mode=no-inflate``; ``none`` without events).
+need different labels. The column ``environment_id`` is a hash of the ground (the environment without noise and
+clocks: what a scan of it measures). The column ``physics`` is the preset, followed by any fields set beside it
+(``quasistatic, timestep=0.005``). The column ``events`` summarises the events (``step 150 damage unit=2
+mode=no-inflate``; ``none`` without events).
 
 The first suites' keys are still read, as aliases of the run-configuration keys: ``shapes`` (``shape``),
 ``learners`` (``learner.name``), ``[experiment.learner_params]`` (``learner.*``), ``noise`` (``environment.noise``,
