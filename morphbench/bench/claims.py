@@ -16,12 +16,17 @@ A measuring function returns a ``Measured`` (the value and what it was measured 
 needs, a sentence saying what is missing: the claim is then 'not measured', never an error. ``check(tables)`` gives
 one ``Verdict`` per claim, in the order of ``CLAIMS``. A new claim is one more entry of ``CLAIMS``.
 
-Which claims a report checks follows its suite's name (``claims_for``): the results of benchmarks/paper-hardware.toml
-(``HARDWARE_SUITE``, the paper's experiments on the environment preset ``hardware``) are checked against
-``HARDWARE_CLAIMS`` alone, every other suite's (paper, paper-quick, smoke, ...) against ``CLAIMS``, as before. The
-hardware claims' ids start with ``hw-``; six of them are the six hardware claims of ``CLAIMS`` (the same finding and
-rule, measured on the hardware suite's experiments instead of the paper suite's options), the others are the
-experiments' findings the paper suite cannot show (docs/hardware.md).
+Which claims a report checks follows its suite's name and the suites it includes (``claims_for``, from the plan's
+``suite`` and ``includes``): the results of benchmarks/paper-hardware.toml (``HARDWARE_SUITE``, the paper's
+experiments on the environment preset ``hardware``) are checked against ``HARDWARE_CLAIMS`` alone, every other
+suite's (paper, paper-quick, smoke, ...) against ``CLAIMS``, as before. The hardware claims' ids start with ``hw-``;
+six of them are the six hardware claims of ``CLAIMS`` (the same finding and rule, measured on the hardware suite's
+experiments instead of the paper suite's options), the others are the experiments' findings the paper suite cannot
+show (docs/hardware.md). A suite that includes others (``include``, morphbench.bench.suite) is checked against its
+own claims merged with those of each included suite that has claims of its own (``SUITE_CLAIMS``): an included
+claim replaces the claim of the same id where it stands, the others follow in their order. So a paper suite that
+includes paper-hardware is checked against CLAIMS with its six hardware claims measured on paper-hardware's
+experiments, then the other hardware claims (73 in all).
 
 The tolerances are this project's reading of the paper's "about": a quarter of a peak of 4.5 mm/cycle, a tenth of a
 cycle of phase, ten percentage points of acceptance. A qualitative finding is a comparison between two conditions of
@@ -1298,6 +1303,20 @@ SUITE_CLAIMS: dict[str, tuple[Claim, ...]] = {HARDWARE_SUITE: HARDWARE_CLAIMS}
 """The suites checked against claims of their own, by suite name."""
 
 
-def claims_for(suite: str | None) -> tuple[Claim, ...]:
-    """The claims a report on suite ``suite`` checks: the suite's own (SUITE_CLAIMS), else the paper's, CLAIMS."""
-    return SUITE_CLAIMS.get(suite or "", CLAIMS)
+def claims_for(suite: str | None, includes: tuple[str, ...] | list[str] = ()) -> tuple[Claim, ...]:
+    """The claims a report on suite ``suite`` checks: the suite's own (SUITE_CLAIMS), else the paper's, CLAIMS; then,
+    for each suite of ``includes`` (the names of those it includes) that has claims of its own, each of them in place
+    of the claim of the same id, the others after (the tuple itself when none is added)."""
+    claims = list(SUITE_CLAIMS.get(suite or "", CLAIMS))
+    changed = False
+    for name in includes:
+        place = {claim.id: k for k, claim in enumerate(claims)}
+        for claim in SUITE_CLAIMS.get(name, ()) if isinstance(name, str) else ():
+            if claim.id in place:
+                changed |= claims[place[claim.id]] is not claim
+                claims[place[claim.id]] = claim
+            else:
+                place[claim.id] = len(claims)
+                claims.append(claim)
+                changed = True
+    return tuple(claims) if changed else SUITE_CLAIMS.get(suite or "", CLAIMS)

@@ -103,6 +103,9 @@ class Suite:
     scans: list[ScanSpec] = field(default_factory=list)
     groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
     """named lists of its experiments (the suite's ``groups``: ``morphbench leaderboard --tasks GROUP``)."""
+    includes: tuple[str, ...] = ()
+    """the names of the suites it includes (its ``include``; an included suite's own includes after it), in order:
+    their experiments, runs, scans and groups are among its own."""
 
     def jobs(self) -> list[Job]:
         """Every job of the suite in a fixed order: runs as the experiments list them, then scan parts."""
@@ -117,8 +120,10 @@ class Suite:
         return jobs
 
     def plan(self) -> dict:
-        """JSON-ready: what the results directory needs to rebuild tables and report without the suite file."""
-        return {
+        """JSON-ready: what the results directory needs to rebuild tables and report without the suite file (and the
+        included suites' names, which the report's claims follow, only if it has any: other plans stay as they
+        were)."""
+        plan = {
             "suite": self.name,
             "description": self.description,
             "source": self.source,
@@ -129,3 +134,6 @@ class Suite:
             ],
             "scans": [{"id": s.id, "name": s.name, "columns": s.columns, "parts": s.part_ids()} for s in self.scans],
         }
+        if self.includes:
+            plan["includes"] = list(self.includes)
+        return plan

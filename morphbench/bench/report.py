@@ -118,7 +118,7 @@ def build_report(out: str | Path, tables: dict[str, pd.DataFrame] | None = None,
     if plan["scans"]:
         lines += ["## Scans", ""]
         lines += _scan_section(plan, scans, figures)
-    lines += _claims_section({**tables, "metrics": metrics, "curves": curves}, plan["suite"])
+    lines += _claims_section({**tables, "metrics": metrics, "curves": curves}, plan["suite"], _includes(plan))
     failed = runs[runs.status == "failed"]
     failed_scans = tables["jobs"][(tables["jobs"].kind == "scan") & (tables["jobs"].status == "failed")]
     if len(failed) or len(failed_scans):
@@ -570,22 +570,40 @@ def _duration(seconds: float) -> str:
 
 def claims_of(out: str | Path) -> list[C.Verdict]:
     """The paper's claims measured on the results directory ``out``, as its report measures them (the claims of its
-    suite: ``claims.claims_for``)."""
+    suite and the suites it includes: ``claims.claims_for``)."""
     store = Store(out)
     plan = store.require_plan()
     tables = store.consolidate(plan)
     steps = tables["steps"]
     return C.check({**tables, "metrics": M.condition_metrics(steps, tables["runs"], tables["scans"]),
-                    "curves": M.curves(steps)}, C.claims_for(plan.get("suite")))
+                    "curves": M.curves(steps)}, C.claims_for(plan.get("suite"), _includes(plan)))
 
 
-def _claims_section(tables: dict[str, pd.DataFrame], suite: str | None = None) -> list[str]:
+def _includes(plan: dict) -> tuple[str, ...]:
+    """The names of the suites the plan's suite includes (none in a plan without ``includes``)."""
+    includes = plan.get("includes", ())
+    return tuple(n for n in includes if isinstance(n, str)) if isinstance(includes, list) else ()
+
+
+def _claims_section(tables: dict[str, pd.DataFrame], suite: str | None = None,
+                    includes: tuple[str, ...] = ()) -> list[str]:
     """The paper's quantitative statements against what the tables measure (morphbench.bench.claims): those of
-    suite ``suite`` (``claims.claims_for``: the hardware twin's, or the paper's)."""
-    claims = C.claims_for(suite)
+    suite ``suite`` and of the suites it includes (``claims.claims_for``: the hardware twin's, or the paper's, or
+    the paper's and the hardware twin's)."""
+    claims = C.claims_for(suite, includes)
+    own = C.claims_for(suite)
     which = ("The paper's experimental findings, on the hardware twin (docs/hardware.md lists each with its figure "
-             "and the effects it needs)" if claims is not C.CLAIMS else
+             "and the effects it needs)" if own is not C.CLAIMS else
              "The paper's findings (Oliveri et al., PNAS 2021; docs/paper.md lists each with its figure)")
+    for name in dict.fromkeys(includes):  # the included suites whose claims join
+        if C.SUITE_CLAIMS.get(name, own) is own:
+            continue
+        if name == C.HARDWARE_SUITE:
+            which += (f" and its experimental findings on the hardware twin (ids starting hw-, measured on the "
+                      f"included suite {name}'s experiments; docs/hardware.md lists each with its figure and the "
+                      "effects it needs)")
+        else:
+            which += f" and the claims of the included suite {name} (measured on its experiments)"
     lines = ["## Claims", "",
              f"{which}, each measured on this suite's tables: 'holds' applies the rule to the measured value; 'not "
              "measured' says what the suite lacks.", ""]

@@ -6,6 +6,8 @@ A suite file is TOML::
     description = "what this suite is for"
     groups = {small = ["S1", "S4"]}     # optional: named lists of its experiments (morphbench leaderboard --tasks
                                         #   small); a group's name is no experiment's
+    include = ["paper-hardware.toml"]   # optional: suite files (relative to this one; or one string) whose
+                                        #   experiments, scans and groups join this suite's ("Included suites")
 
     physics = "quasistatic"             # optional: the preset of every run and scan that names no physics of its own
     [defaults]                          # optional: any experiment key, used where an experiment leaves it out
@@ -81,6 +83,15 @@ shape, physics or ground is drawn without runs on it. The report's 'of scan best
 a scan) always takes the healthy scans of the same shape, physics and ground, named or not: a damaged landscape is
 no measure of what the healthy robot could do.
 
+Included suites: ``include`` names suite files, each read as a suite of its own (its ``name``, ``defaults`` and
+``physics``; this suite's do not reach it, ``morphbench bench --physics`` does), whose experiments, runs, scans and
+groups join this suite's after its own, in the order listed (an included suite's own includes with it). Their names
+must differ from this suite's and the earlier includes' (experiments and groups share one set of names, scans have
+their own); a run listed by both is run once; a scan both measure is refused, and so is a cycle (a suite that
+includes itself, directly or not). This suite's ``scans`` and ``groups`` may name what it includes. A suite of
+includes alone is a suite. Its plan lists the included suites' names (``includes``), and the report checks the claims
+of each that has claims of its own (morphbench.bench.claims.claims_for) beside this suite's.
+
 Every key is checked: an unknown key, a value of the wrong type or out of range, a missing morphology file or an
 unusable learner raises ``ConfigError`` naming the suite file and the key as written (``experiment[S4].noise``).
 
@@ -124,29 +135,32 @@ from morphbench.bench.model import (
 
 EXPERIMENT_KEYS = ("name", "scans", *RUN_KEYS, *ALIASES)
 DEFAULT_KEYS = tuple(k for k in EXPERIMENT_KEYS if k not in ("name", "description", "scans"))
-SUITE_KEYS = ("name", "description", "groups", "physics", "defaults", "experiment", "scan")
+SUITE_KEYS = ("name", "description", "groups", "include", "physics", "defaults", "experiment", "scan")
 SUITE_DEFAULTS = {"sensor": {"kind": "ideal"}}
 """Suites score the true velocity and run thousands of learning runs: they measure with the ideal sensor (10%
 cheaper than the optical one) unless told otherwise."""
 
 
 def load_suite(path: str | Path, physics: str | None = None) -> Suite:
-    """Read, validate and expand a suite file; ``physics``, a preset name, replaces every run's and scan's physics
-    (``morphbench bench --physics``)."""
+    """Read, validate and expand a suite file and the suites it includes; ``physics``, a preset name, replaces every
+    run's and scan's physics, theirs too (``morphbench bench --physics``)."""
     path = Path(path)
     table, text = read_toml_with_text(path, "suite file")
     return suite_from_table(table, source=str(path), base=path.parent, default_name=path.stem, text=text,
-                            physics=physics)
+                            physics=physics, chain=(_resolved(path),))
 
 
 def suite_from_table(table: dict, *, source: str, base: Path, default_name: str = "suite", text: str = "",
-                     physics: str | None = None) -> Suite:
-    """A suite from a parsed TOML table; morphology paths are relative to ``base``; ``physics`` as in load_suite."""
+                     physics: str | None = None, chain: tuple[Path, ...] = ()) -> Suite:
+    """A suite from a parsed TOML table; morphology paths and included suites are relative to ``base``; ``physics``
+    as in load_suite; ``chain``: the suite files being read that lead to this one (this one's last), whose inclusion
+    is a cycle."""
     if physics is not None:
         check_rule(PHYSICS_PRESET, "", physics, "--physics", "physics")
     check_keys(table, SUITE_KEYS, source, "")
     name = check_name(table.get("name", default_name), source, "name")
     description = _string(table.get("description", ""), source, "description")
+    includes = _include_paths(table.get("include", []), source)
     defaults = table.get("defaults", {})
     if not isinstance(defaults, dict):
         raise ConfigError(source, "defaults", "a table of experiment keys", defaults)
@@ -159,8 +173,8 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
         defaults.setdefault("physics", {"preset": own_physics})
     experiments = _array_of_tables(table, "experiment", source)
     scans = _array_of_tables(table, "scan", source)
-    if not experiments and not scans:
-        raise ConfigError(source, "experiment", "at least one [[experiment]] or [[scan]] table")
+    if not experiments and not scans and not includes:
+        raise ConfigError(source, "experiment", "at least one [[experiment]] or [[scan]] table (or an include)")
     suite = Suite(name=name, description=description, source=source, text=text)
     ctx = Context(source, base)
     seen: set[str] = set()
@@ -193,13 +207,85 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
         if any(s.id == spec.id for s in suite.scans):
             raise ConfigError(source, f"scan[{index}]", "a scan that differs from the others (it repeats one)")
         suite.scans.append(spec)
-    for experiment in suite.experiments:
+    own_groups = table.get("groups", {})
+    included_groups: dict[str, tuple[str, ...]] = {}
+    for index, relative in enumerate(includes):
+        included = _include(relative, index, base, source, physics, chain)
+        _join(suite, included, included_groups, set(own_groups) if isinstance(own_groups, dict) else set(), source,
+              f"include[{index}]")
+        scan_names.update(s.name for s in included.scans)
+    for experiment in suite.experiments[:len(experiments)]:  # an included suite's were checked by its own reading
         for name in experiment.scans:
             if name not in scan_names:
                 raise ConfigError(source, f"experiment[{experiment.name}].scans", "names of the suite's scans ("
                                   f"{', '.join(sorted(scan_names)) or 'it has none'})", name)
-    suite.groups = _groups(table.get("groups", {}), [e.name for e in suite.experiments], source)
+    suite.groups = {**_groups(own_groups, [e.name for e in suite.experiments], source), **included_groups}
     return suite
+
+
+def _include_paths(value: Any, source: str) -> list[str]:
+    """The suite's ``include``: a suite file's path or a list of them (relative to the suite file's directory)."""
+    if not isinstance(value, (list, str)):
+        raise ConfigError(source, "include", "a list of suite files (paths relative to this file's directory)",
+                          value)
+    paths = value if isinstance(value, list) else [value]
+    for index, path in enumerate(paths):
+        if not isinstance(path, str) or not path:
+            raise ConfigError(source, f"include[{index}]", "a suite file's path (relative to this file's directory)",
+                              path)
+    return paths
+
+
+def _include(relative: str, index: int, base: Path, source: str, physics: str | None,
+             chain: tuple[Path, ...]) -> Suite:
+    """The suite ``include[index]`` names, read by the same loader; a ConfigError naming that key if the file is
+    missing or unreadable, or includes a suite of ``chain`` (a cycle)."""
+    key, path = f"include[{index}]", base / relative
+    resolved = _resolved(path)
+    if resolved in chain:
+        cycle = " -> ".join(p.name for p in (*chain[chain.index(resolved):], resolved))
+        raise ConfigError(source, key, f"a suite file that does not include this one, directly or not (a cycle: "
+                                       f"{cycle})", relative)
+    try:
+        table, text = read_toml_with_text(path, "suite file")
+    except ConfigError as error:  # it names the file alone: name the key that led there
+        raise ConfigError(source, key, f"{error.expected} at {error.source}", relative) from None
+    return suite_from_table(table, source=str(path), base=path.parent, default_name=path.stem, text=text,
+                            physics=physics, chain=(*chain, resolved))
+
+
+def _join(suite: Suite, included: Suite, groups: dict[str, tuple[str, ...]], own_groups: set[str], source: str,
+          key: str) -> None:
+    """Add ``included``'s experiments, runs and scans to ``suite``'s and its groups to ``groups`` (those of the
+    earlier includes); a ConfigError naming ``key`` for a name ``suite`` already has or a scan it already measures."""
+    expected = (f"suites whose experiment, scan and group names differ from this suite's (suite {included.name!r} "
+                "has this name too)")
+    taken = {e.name for e in suite.experiments} | own_groups | set(groups)  # --tasks takes experiments and groups
+    for name in [e.name for e in included.experiments] + list(included.groups):
+        if name in taken:
+            raise ConfigError(source, key, expected, name)
+    scan_names, scan_ids = {s.name for s in suite.scans}, {s.id for s in suite.scans}
+    for scan in included.scans:
+        if scan.name in scan_names:
+            raise ConfigError(source, key, expected, scan.name)
+        if scan.id in scan_ids:
+            raise ConfigError(source, key, f"suites whose scans differ from this suite's (this scan of suite "
+                                           f"{included.name!r} repeats one: the same shape, physics, ground and "
+                                           "points)", scan.name)
+    suite.experiments.extend(included.experiments)
+    for run_id, spec in included.runs.items():  # a run both list is run once
+        suite.runs.setdefault(run_id, spec)
+    suite.scans.extend(included.scans)
+    groups.update(included.groups)
+    suite.includes += (included.name, *included.includes)
+
+
+def _resolved(path: Path) -> Path:
+    """``path`` made absolute, links followed, as far as it can be (what tells a suite file from another)."""
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError, ValueError):
+        return path.absolute()
 
 
 def _groups(value: Any, experiments: list[str], source: str) -> dict[str, tuple[str, ...]]:
