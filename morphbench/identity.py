@@ -70,15 +70,3 @@ def config_identity(config, preset: str) -> dict:
     data["noise"] = config.environment.noise
     data["physics_preset"] = preset
     return data
-
-
-def environment_id(environment) -> str:
-    """A hash of the ground and pumps a run or scan moves on: the environment without measurement noise and the
-    units' clocks (``params.scan_environment``), which change what and when learners measure, not the landscape. A
-    scan's best Ubar is compared with, and its landscape drawn under, the runs on the same ground: a scan measures
-    on one clock without noise, so runs with clocks of their own (the preset 'hardware') find their scans too."""
-    from morphbench.params import scan_environment  # params builds on this module (rules, ADDED_LATER)
-
-    data = identity(scan_environment(environment))
-    data.pop("noise", None)
-    return stable_hash(data)

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal, get_args
 
 from morphbench.errors import ConfigError
+from morphbench.identity import identity, stable_hash
 from morphbench.rules import Choices, OfType, Range, StepSpan, between, check_rule, param
 # the rest of the rule engine, still importable from here (new code imports it from morphbench.rules)
 from morphbench.rules import (
@@ -469,6 +470,16 @@ def scan_environment(environment: EnvironmentParams) -> EnvironmentParams:
     """What a scan of ``environment`` measures in: its ground and pumps (friction scale and field, vibration), without
     its measurement noise or clocks of their own (a scan measures the true velocity at fixed phases on one clock)."""
     return dataclasses.replace(environment, noise=0.0, clock_drift=0.0, clock_offset=0.0)
+
+
+def environment_id(environment: EnvironmentParams) -> str:
+    """A hash of the ground and pumps a run or scan moves on: what a scan of the environment measures in
+    (``scan_environment``: without the measurement noise and the units' clocks, which change what and when learners
+    measure, not the landscape). A scan's best Ubar is compared with, and its landscape drawn under, the runs on the
+    same ground, so runs with clocks of their own (the preset 'hardware') find their scans too."""
+    data = identity(scan_environment(environment))
+    data.pop("noise", None)
+    return stable_hash(data)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -22,7 +22,7 @@ from morphbench.bench import claims as C
 from morphbench.bench.suite import load_suite, suite_from_table
 from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig, load_run_config, run_config_from_table
-from morphbench.identity import config_identity, environment_id, identity, stable_hash
+from morphbench.identity import config_identity, identity, stable_hash
 from morphbench.physics.friction import FrictionField, factors
 from morphbench.shapes import load_shape
 
@@ -47,7 +47,7 @@ def test_the_presets_are_whole_environments_and_hardware_turns_each_effect_on():
 
 def test_the_default_environments_ids_are_those_of_before():
     """Golden values computed before the presets and the field's offset existed: stored results keep their ids."""
-    assert environment_id(P.EnvironmentParams()) == "655b0ab6a566"
+    assert P.environment_id(P.EnvironmentParams()) == "655b0ab6a566"
     config = RunConfig(shape=load_shape(CHAIN2))
     assert stable_hash(config_identity(config, "default")) == "39f29d97cf6a"
     assert "offset" not in identity(P.EnvironmentParams())["friction_field"]

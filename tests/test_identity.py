@@ -64,8 +64,7 @@ def test_a_ground_id_is_the_ground_and_pumps_alone_so_runs_with_clocks_find_thei
     noise and the units' clocks leave it as it is, the pumps' vibration and the friction do not. So the hardware
     suite's runs (noise, clocks of their own) share the ground of its scans (no noise, one clock)."""
     from morphbench.bench.suite import load_suite
-    from morphbench.identity import environment_id
-    from morphbench.params import HARDWARE_ENVIRONMENT, scan_environment
+    from morphbench.params import HARDWARE_ENVIRONMENT, environment_id, scan_environment
 
     ground = environment_id(EnvironmentParams())
     assert environment_id(EnvironmentParams(noise=0.5, clock_drift=0.01, clock_offset=1.0)) == ground

@@ -18,7 +18,7 @@ import numpy as np
 from morphbench import params as P
 from morphbench.bench.aliases import rename
 from morphbench.bench.cost import run_cost
-from morphbench.identity import config_identity, environment_id, identity, shape_id, shape_identity, stable_hash
+from morphbench.identity import config_identity, identity, shape_id, shape_identity, stable_hash
 from morphbench.bench.model import SCAN_PART_POINTS, Experiment, RunSpec, ScanSpec
 from morphbench.errors import ConfigError
 from morphbench.experiment.config import environment_from_table, physics_from_table, run_config_from_table
@@ -133,7 +133,7 @@ def expand_experiment(table: dict, names: dict[str, str], name: str, description
                                   exc.got)
             raise _named(exc, where, found, names) from None
         label = label or environment_label(environment)
-        ground = environment_id(config.environment)
+        ground = P.environment_id(config.environment)
         if grounds.setdefault(label, ground) != ground:
             raise ConfigError(src, f"{env_key}.name", "a label no other environment of the experiment has (give each "
                                                       "a distinct name)", label)
@@ -293,7 +293,7 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
     columns = {"scan": name, "shape": shape.name, "shape_id": shape_id(shape), "n_units": shape.n_units,
                "resolution": resolution, "samples": len(phases), "waves": waves or 0, "cycles": cycles,
                "discard": discard, "seed": seed, "physics": physics_label,
-               "environment": environment_label(environment_table), "environment_id": environment_id(environment),
+               "environment": environment_label(environment_table), "environment_id": P.environment_id(environment),
                "damage": damage.describe() if damage else "none"}
     return ScanSpec(scan_id, name, shape, columns, physics, cycles, discard, phases, environment, damage)
 

@@ -39,7 +39,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from morphbench.identity import environment_id
+from morphbench.params import environment_id
 from morphbench.bench.store import DAMAGED, SUMMARY_COLUMNS
 from morphbench.experiment.records import final_value
 from morphbench.learning.base import wrap_phases
