@@ -285,7 +285,9 @@ HARDWARE_BASE = {"vibration": HARDWARE_ENVIRONMENT.vibration,
                  "field_amplitude": HARDWARE_ENVIRONMENT.friction_field.amplitude,
                  "field_length": HARDWARE_ENVIRONMENT.friction_field.correlation_length,
                  "noise": HARDWARE_ENVIRONMENT.noise, "clock_drift": HARDWARE_ENVIRONMENT.clock_drift}
-"""Where the search starts: the provisional preset (params.HARDWARE_ENVIRONMENT)."""
+"""Where the search starts: the preset as it stands (params.HARDWARE_ENVIRONMENT). The search of
+docs/calibration-hardware.md, which calibrated it, started from the provisional values before it: rerun it with
+``--start vibration=0.8 field_amplitude=0.3 field_length=0.25 noise=0.5 clock_drift=0.001``."""
 
 HARDWARE_FIXED = {"clock_offset": HARDWARE_ENVIRONMENT.clock_offset}
 """Fields of the preset a hardware candidate may set (``--start``) but the search does not vary: the units' own
