@@ -59,8 +59,8 @@ def sections(results: Path, verdicts) -> tuple[list[str], list[str]]:
               f"{int((jobs.status == 'done').sum())} done")
     held = ", ".join(v.claim.id for v in verdicts if v.holds is True)
     failing = [v for v in verdicts if v.holds is not True]
-    stands = [f"On the paper suite at 112 seeds ({source}; docs/calibration.md lists every claim that does not hold, "
-              f"with its value and the reason): **{counts(verdicts)}**.", "",
+    stands = [f"On the paper suite at 112 seeds, its hardware twin at 56 ({source}; docs/calibration.md lists every "
+              f"claim that does not hold, with its value and the reason): **{counts(verdicts)}**.", "",
               f"Hold: {held}.", "", f"Do not hold: {', '.join(v.claim.id for v in failing)}."]
     table = [f"{source} and `morphbench report {results}`: **{counts(verdicts)}**. Every claim that does "
              "not hold, with its measured value:", "",

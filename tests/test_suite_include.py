@@ -310,17 +310,20 @@ def test_claims_for_without_includes_with_claims_is_as_before():
     assert C.claims_for(C.HARDWARE_SUITE, (C.HARDWARE_SUITE,)) is C.HARDWARE_CLAIMS
 
 
-def test_the_paper_suite_with_the_hardware_suite_included_loads_both(tmp_path):
-    paper, hardware = load_suite(BENCHMARKS_DIR / "paper.toml"), load_suite(BENCHMARKS_DIR / "paper-hardware.toml")
+def test_the_paper_suite_includes_the_hardware_suite(tmp_path):
+    """benchmarks/paper.toml runs the hardware twin's scenarios beside the simulations' (issue 38, part 3)."""
+    both, hardware = load_suite(BENCHMARKS_DIR / "paper.toml"), load_suite(BENCHMARKS_DIR / "paper-hardware.toml")
     text = (BENCHMARKS_DIR / "paper.toml").read_text()
-    text = f'include = ["{BENCHMARKS_DIR / "paper-hardware.toml"}"]\n' + text.replace('"../shapes/',
-                                                                                      f'"{BENCHMARKS_DIR}/../shapes/')
-    both = load_suite(write_suite(tmp_path, text, "paper.toml"))
-    assert (both.name, both.includes) == ("paper", ("paper-hardware",))
+    assert 'include = ["paper-hardware.toml"]\n' in text
+    alone = text.replace('include = ["paper-hardware.toml"]\n', "").replace('"../shapes/',
+                                                                             f'"{BENCHMARKS_DIR}/../shapes/')
+    paper = load_suite(write_suite(tmp_path, alone, "paper.toml"))
+    assert (both.name, both.includes, paper.includes) == ("paper", ("paper-hardware",), ())
     assert [e.name for e in both.experiments] == [e.name for e in paper.experiments + hardware.experiments]
     assert [s.name for s in both.scans] == [s.name for s in paper.scans + hardware.scans]
     assert list(both.runs) == list(dict.fromkeys([*paper.runs, *hardware.runs]))
     assert both.plan()["includes"] == ["paper-hardware"]
+    assert len(C.claims_for(both.name, both.includes)) == 73
 
 
 # --- end to end -----------------------------------------------------------------------------------------------------
