@@ -8,6 +8,7 @@ end to end, the others are only loaded.
 from __future__ import annotations
 
 import json
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -346,3 +347,11 @@ def test_bench_and_report_a_suite_that_includes_the_hardware_suites_name(main_su
     assert "The paper's findings (Oliveri et al." in section and "hardware twin" in section
     assert "included suite paper-hardware's experiments" in section
     assert "| hw-peak |" in section and "| hw-trough |" in section
+    record = (out / "suite.toml").read_text()  # the including file, then the included one in comments
+    assert record.startswith(main_suite.read_text().rstrip("\n"))
+    assert "# --- include[0]: sub/other.toml, as it was read ---" in record and '# name = "paper-hardware"' in record
+    assert tomllib.loads(record)["include"] == ["sub/other.toml"]
+    plan["includes"] = ["../elsewhere"]  # a damaged plan is refused by the store, naming the key
+    (out / "plan.json").write_text(json.dumps(plan))
+    code, _, err = run_cli(capsys, "report", str(out), "--no-videos")
+    assert code != 0 and "includes[0]" in err and "Traceback" not in err

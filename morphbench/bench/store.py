@@ -760,6 +760,9 @@ def check_plan(plan: Any, source: str) -> None:
     _require(plan, dict, source, "(plan)", "the JSON object 'morphbench bench' writes")
     _require(plan.get("suite"), str, source, "suite", "the suite's name")
     _require(plan.get("description", ""), str, source, "description", "a string")
+    for i, name in enumerate(_require(plan.get("includes", []), list, source, "includes",
+                                      "a list of the names of the suites it includes")):
+        _name(name, source, f"includes[{i}]")
     runs = _require(plan.get("runs"), list, source, "runs", "a list of runs")
     conditions, run_ids, settings = set(), set(), set()
     reserved = {*_run_columns({"runs": []}), *STEP_COLUMNS}  # a setting of that name would be a second column

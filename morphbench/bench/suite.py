@@ -90,7 +90,8 @@ must differ from this suite's and the earlier includes' (experiments and groups 
 their own); a run listed by both is run once; a scan both measure is refused, and so is a cycle (a suite that
 includes itself, directly or not). This suite's ``scans`` and ``groups`` may name what it includes. A suite of
 includes alone is a suite. Its plan lists the included suites' names (``includes``), and the report checks the claims
-of each that has claims of its own (morphbench.bench.claims.claims_for) beside this suite's.
+of each that has claims of its own (morphbench.bench.claims.claims_for) beside this suite's. The copy of the suite
+file a results directory keeps (``suite.toml``) has each included file after it, as it was read, in comments.
 
 Every key is checked: an unknown key, a value of the wrong type or out of range, a missing morphology file or an
 unusable learner raises ``ConfigError`` naming the suite file and the key as written (``experiment[S4].noise``).
@@ -213,6 +214,9 @@ def suite_from_table(table: dict, *, source: str, base: Path, default_name: str 
         included = _include(relative, index, base, source, physics, chain)
         _join(suite, included, included_groups, set(own_groups) if isinstance(own_groups, dict) else set(), source,
               f"include[{index}]")
+        if suite.text:  # the record (a results directory's suite.toml) holds what was included, as comments
+            suite.text = (suite.text.rstrip("\n") + f"\n\n# --- include[{index}]: {relative}, as it was read ---\n"
+                          + "".join(f"# {line}".rstrip() + "\n" for line in included.text.splitlines()))
         scan_names.update(s.name for s in included.scans)
     for experiment in suite.experiments[:len(experiments)]:  # an included suite's were checked by its own reading
         for name in experiment.scans:
