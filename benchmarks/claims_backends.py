@@ -27,6 +27,23 @@ def _value(verdict) -> str:
     return f"{verdict.measured.value:.3g}, {'holds' if verdict.holds else 'does not hold'}"
 
 
+FEW_RUNS = 8
+"""Below this many runs a condition, its standard error is itself too uncertain to call a difference established."""
+
+
+def _seed_counts(table) -> str:
+    """What the conditions' run counts allow the comparison to establish."""
+    runs = table[["runs_a", "runs_b"]].to_numpy()
+    low, high = int(runs.min()), int(runs.max())
+    counts = f"{low}" if low == high else f"{low} to {high}"
+    if low < FEW_RUNS:
+        return (f"With {counts} runs a condition, their own standard errors are estimated from as few runs, "
+                "so even those are not established: the paper suite at 112 seeds on PyBullet would settle them "
+                "(about 13 hours on 2 cores at the quick suite's cost per run; not run).")
+    return (f"With {counts} runs a condition, the listed conditions differ beyond their seeds' spread: the "
+            "backends differ there.")
+
+
 def page(a: Path, b: Path) -> str:
     first, second = claims_of(a), claims_of(b)
     held = [sum(v.holds is True for v in verdicts) for verdicts in (first, second)]
@@ -51,10 +68,8 @@ def page(a: Path, b: Path) -> str:
               "backends' means sit on either side of it within their seeds' spread, the verdicts differ while the "
               "backends agree. Which claims do tells apart: a claim whose conditions agree within "
               f"{B.DISAGREE_SE:g} standard errors (every one above but those of the conditions listed) differs by "
-              "chance at these seed counts, and only the listed conditions differ beyond it. With 2 to 4 runs a "
-              "condition, their own standard errors are estimated from as few runs, so even those are not "
-              "established: the paper suite at 112 seeds on PyBullet would settle them (about 13 hours on 2 cores "
-              "at the quick suite's cost per run; not run). What the backends do differ in, measured at fixed "
+              "chance at these seed counts, and only the listed conditions differ beyond it. " + _seed_counts(table)
+              + " What the backends do differ in, measured at fixed "
               "phases with many cycles, is in docs/fidelity.md: within 0.11-0.25 mm/cycle rms on the 2- and 3-unit "
               "landscapes at the default friction, more at higher friction and lower inertia."]
     return "\n".join(lines) + "\n"
