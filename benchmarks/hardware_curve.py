@@ -2,8 +2,8 @@
 the experiments' findings on it (hw-peak, hw-trough, the local maximum near 0.9) any setting reaches. The generated
 page docs/hardware-curve.md.
 
-    python benchmarks/hardware_curve.py --workers 2        # default (the quasi-static chain solver) and dynamic
-    python benchmarks/hardware_curve.py --physics fast --vibrations 0.6 0.7 0.8 1 --amplitudes 0 0.3 --workers 2
+    python benchmarks/hardware_curve.py --workers 2        # default (the quasi-static chain solver), dynamic, fast
+    python benchmarks/hardware_curve.py --physics dynamic --vibrations 0.6 0.7 0.8 1 --amplitudes 0 0.3 --workers 2
 
 Each cell is the 2-unit curve (chain-2, the scan resolution of the hardware suite) measured at the places of the
 track of benchmarks/paper-hardware.toml's scans hw-S2, hw-S2-at-1..3 (their friction_field offsets), in the preset
@@ -83,7 +83,7 @@ def page(rows: list[dict], command: str, wall_s: float) -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--physics", nargs="+", default=["default", "dynamic"], choices=tuple(PHYSICS_PRESETS))
+    parser.add_argument("--physics", nargs="+", default=["default", "dynamic", "fast"], choices=tuple(PHYSICS_PRESETS))
     parser.add_argument("--vibrations", nargs="+", type=float, default=list(VIBRATIONS))
     parser.add_argument("--amplitudes", nargs="+", type=float, default=list(AMPLITUDES))
     parser.add_argument("--workers", type=int, default=1)
