@@ -159,6 +159,15 @@ def test_a_centralized_baseline_does_not_narrow_the_comparison():
 # --- the standard set -------------------------------------------------------------------------------------------------
 
 
+def test_a_leaderboard_suite_that_includes_another_is_refused(tmp_path):
+    """An included suite's experiments would keep their own learners: a leaderboard's suite lists its tasks itself."""
+    path = tmp_path / "board.toml"
+    path.write_text(f'include = ["other.toml"]\n[[experiment]]\nname = "t"\nshape = "{SHAPES_DIR / "chain-2.toml"}"\n')
+    with pytest.raises(ConfigError) as info:
+        learner_suite(path, ["random"])
+    assert info.value.source == str(path) and info.value.key == "include"
+
+
 def test_the_default_set_is_version_2_and_a_plugin_runs_its_tasks_with_the_same_ids():
     suite = load_suite(standard_suite())
     assert standard_suite() == BENCHMARKS_DIR / "standard-v2.toml" and suite.name == "standard-v2"

@@ -153,6 +153,9 @@ def learner_suite(path: str | Path, learners: list[str], tasks: list[str] | None
     holds their best points). A task names no learner of its own: the leaderboard sets them (defaults.learner.name)."""
     path = Path(path)
     table, text = read_toml_with_text(path, "suite file")
+    if "include" in table:  # an included suite's experiments would keep their own learners
+        raise ConfigError(path, "include", "no include in a leaderboard's suite (it runs every task with the learners "
+                                           "it is given: write the tasks into the file)", table["include"])
     defaults = dict(table.get("defaults") or {})
     learner = defaults.get("learner", {})
     defaults["learner"] = {**(learner if isinstance(learner, dict) else {}), "name": list(learners)}
