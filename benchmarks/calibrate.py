@@ -289,9 +289,10 @@ HARDWARE_BASE = {"vibration": HARDWARE_ENVIRONMENT.vibration,
 docs/calibration-hardware.md, which calibrated it, started from the provisional values before it: rerun it with
 ``--start vibration=0.8 field_amplitude=0.3 field_length=0.25 noise=0.5 clock_drift=0.001``."""
 
-HARDWARE_FIXED = {"clock_offset": HARDWARE_ENVIRONMENT.clock_offset}
+HARDWARE_FIXED = {"clock_offset": HARDWARE_ENVIRONMENT.clock_offset, "noise_ground": HARDWARE_ENVIRONMENT.noise_ground}
 """Fields of the preset a hardware candidate may set (``--start``) but the search does not vary: the units' own
-step starts (each unit's offset over its learning step), a fact of clocks the robots do not share."""
+step starts (each unit's offset over its learning step), a fact of clocks the robots do not share; and how the
+noise depends on the ground (EnvironmentParams.noise_ground, added after the search: ``--evaluate`` measures it)."""
 
 ABLATIONS: dict[str, dict[str, float]] = {
     "no vibration": {"vibration": 1.0},
@@ -337,7 +338,7 @@ def hardware_environment(candidate: dict, for_scan: bool = False) -> dict:
                                 "correlation_length": candidate["field_length"]}}
     if not for_scan:
         table.update(noise=candidate["noise"], clock_drift=candidate["clock_drift"],
-                     clock_offset=candidate.get("clock_offset", HARDWARE_FIXED["clock_offset"]))
+                     **{key: candidate.get(key, value) for key, value in HARDWARE_FIXED.items()})
     return table
 
 

@@ -392,6 +392,13 @@ class EnvironmentParams:
     docs/paper.md suggests 0.8. The dummy never vibrates."""
     noise: float = param(0.0, between(0, 1000), "mm/cycle")
     """mm/cycle, standard deviation of Gaussian noise added to each measured velocity, on top of the sensor's own."""
+    noise_ground: float = param(0.0, Range(0, 1), "fraction", later=True)
+    """how the noise depends on the ground: a unit's noise is ``noise`` times (1 + noise_ground f(x, y)) where it
+    stands at the end of its measurement, f the shape of ``friction_field`` (in [-1, 1], read at the same offset),
+    so that where the track's surface changes its friction it changes what the optical sensor sees too (its error
+    grows as the ground's contrast falls: docs/sensing.md, 0.04 to 0.33 mm/cycle from contrast 0.5 to 0.1). 0: the
+    same everywhere. The field of the run's environment, whatever its amplitude; a friction event does not change
+    it."""
     friction_field: FrictionFieldParams = field(default_factory=FrictionFieldParams)
     ground: GroundParams = field(default_factory=lambda: GroundParams())
     """the texture optical sensors look at (and videos show)."""
@@ -471,7 +478,7 @@ the preset's, key by key (a ``friction_field`` sub-table field by field)."""
 def scan_environment(environment: EnvironmentParams) -> EnvironmentParams:
     """What a scan of ``environment`` measures in: its ground and pumps (friction scale and field, vibration), without
     its measurement noise or clocks of their own (a scan measures the true velocity at fixed phases on one clock)."""
-    return dataclasses.replace(environment, noise=0.0, clock_drift=0.0, clock_offset=0.0)
+    return dataclasses.replace(environment, noise=0.0, noise_ground=0.0, clock_drift=0.0, clock_offset=0.0)
 
 
 def environment_id(environment: EnvironmentParams) -> str:

@@ -22,6 +22,7 @@ from morphbench.bench import claims as C
 from morphbench.bench.suite import load_suite, suite_from_table
 from morphbench.errors import ConfigError
 from morphbench.experiment import RunConfig, load_run_config, run_config_from_table
+from morphbench.experiment.driver import run_batch
 from morphbench.experiment.scan import velocity_at
 from morphbench.identity import config_identity, identity, stable_hash
 from morphbench.physics.friction import FrictionField, factors
@@ -140,6 +141,7 @@ def test_a_suite_names_the_preset_and_labels_its_conditions_by_it(tmp_path):
 
 @pytest.mark.parametrize("environment, key", [('{preset = "hardware", noise = 0.5}', "environment.noise"),
                                               ('{preset = "hardware", clock_drift = 0.01}', "environment.clock_drift"),
+                                              ('{noise_ground = 0.5}', "environment.noise_ground"),
                                               ('"lab"', "environment")])
 def test_a_scan_of_the_preset_still_refuses_noise_and_clocks_written_beside_it(tmp_path, environment, key):
     with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
@@ -182,6 +184,46 @@ def test_the_command_line_runs_and_scans_on_the_preset(tmp_path, capsys):
     assert code == 0, err
     code, _, err = run_cli(capsys, "run", str(CHAIN2), "--environment", "lab", "--out", str(tmp_path / "x"))
     assert code == 2 and "--environment" in err
+
+
+def _first_step_residuals(environment: dict, seeds=(4,)) -> list[pd.DataFrame]:
+    """chain-2's step 0 per unit (measured minus true velocity, and where the unit stands) for each seed, run as one
+    batch."""
+    configs = [_run({"steps": 2, "seed": seed, "sensor": {"kind": "ideal"}, "environment": environment})
+               for seed in seeds]
+    frames = []
+    for records in run_batch(configs):
+        units = records.units()
+        first = units[units.step == 0]
+        frames.append(first.assign(residual=first.u_measured - first.u_true))
+    return frames
+
+
+@pytest.mark.parametrize("clocks", [{}, {"clock_drift": 0.001, "clock_offset": 0.5}])
+def test_a_noise_of_the_ground_scales_each_units_noise_by_the_field_where_it_stands(clocks):
+    """EnvironmentParams.noise_ground: a unit's noise is noise (1 + b f(x, y)) at its place, f the friction field's
+    shape (here with no amplitude: the physics is the uniform ground's, so the same seed draws the same normals and
+    the residuals' ratio is the factor itself), on one clock and with clocks of their own alike."""
+    ground = {"noise": 1.0, "friction_field": {"amplitude": 0.0, "correlation_length": 0.1}, **clocks}
+    (plain,), (shaded,) = _first_step_residuals(ground), _first_step_residuals({**ground, "noise_ground": 0.9})
+    shape = FrictionField(P.FrictionFieldParams(amplitude=0.0, correlation_length=0.1))
+    factor = 1 + 0.9 * shape(shaded.x_m.to_numpy(), shaded.y_m.to_numpy())  # where each unit ended its step
+    assert np.abs(factor - 1).max() > 0.2  # the units stand where the field is far from 0
+    ratio = shaded.residual.to_numpy() / plain.residual.to_numpy()
+    assert ratio == pytest.approx(factor, rel=1e-2 if clocks else 1e-9)  # with clocks each unit ends on its own
+
+
+def test_a_noise_of_the_ground_is_the_same_run_alone_or_in_a_batch_and_off_leaves_runs_as_they_were():
+    ground = {"noise": 1.0, "noise_ground": 0.5, "friction_field": {"amplitude": 0.3, "correlation_length": 0.1}}
+    together = _first_step_residuals(ground, seeds=(4, 5))
+    alone = [_first_step_residuals(ground, seeds=(seed,))[0] for seed in (4, 5)]
+    for a, b in zip(together, alone):
+        pd.testing.assert_frame_equal(a.reset_index(drop=True), b.reset_index(drop=True))
+    off = P.EnvironmentParams(noise=1.0)  # at its default the field is left out of ids: results keep their ids
+    assert config_identity(_run({"environment": {"noise": 1.0, "noise_ground": 0.0}}), "default") == \
+        config_identity(_run({"environment": {"noise": 1.0}}), "default")
+    assert P.environment_id(dataclasses.replace(off, noise_ground=0.5)) == P.environment_id(off)
+    assert P.scan_environment(dataclasses.replace(HW, noise_ground=0.5)) == P.scan_environment(HW)
 
 
 def _curve(physics: str, environment: P.EnvironmentParams) -> np.ndarray:

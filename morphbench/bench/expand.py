@@ -253,9 +253,10 @@ def expand_scan(table: dict, index: int, ctx: Context) -> ScanSpec:
         raise ConfigError(src, f"{where}.environment", "a table of EnvironmentParams fields or an environment "
                                                        f"preset's name ({', '.join(P.ENVIRONMENT_PRESETS)})",
                           environment_table)
-    if "noise" in environment_table:
-        raise ConfigError(src, f"{where}.environment.noise", "no noise in a scan's environment: scans measure the "
-                                                              "true velocity", environment_table["noise"])
+    for key in ("noise", "noise_ground"):
+        if key in environment_table:
+            raise ConfigError(src, f"{where}.environment.{key}", "no noise in a scan's environment: scans measure the "
+                                                                 "true velocity", environment_table[key])
     environment = environment_from_table(environment_table, src, f"{where}.environment")
     for key in ("clock_drift", "clock_offset"):
         if environment_table.get(key):

@@ -177,9 +177,12 @@ class OwnClocks:
         to_mm_per_cycle = 1000.0 / self.cycles
         row = self._row(step)
         row.u_true[due] = moved[-1, due] * to_mm_per_cycle[due]
+        sigma = np.full(len(position), float(noise))
+        if noise and loop.config.environment.noise_ground:  # where each unit stands, for a noise of the ground
+            sigma = loop.noise_sigma(noise, loop.world.unit_poses()[0][position])
         for unit in np.flatnonzero(due):  # each unit's own noise stream, as the shared clock's run loop draws it
             row.u_measured[unit] = moved[0, unit] * to_mm_per_cycle[unit] + (
-                loop.noise_rngs[unit].normal(0.0, noise) if noise else 0.0)
+                loop.noise_rngs[unit].normal(0.0, sigma[unit]) if noise else 0.0)
         row.u_measured[due & ~alive] = np.nan
         controller = loop.controller
         accepted, kept = (controller.update(step, row.u_measured, alive) if due.all() else

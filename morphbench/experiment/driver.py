@@ -215,8 +215,12 @@ class Driver:
         noisy = [i for i in self._going() if places.noise[i]]
         if noisy:
             noise = np.zeros(u_true.shape)
+            # where each run's units stand, in unit order, for a noise that depends on the ground
+            positions = self.batch.unit_poses()[0][places.where] if self.configs[0].environment.noise_ground else None
             for index in noisy:  # each unit draws from its own stream
-                noise[index] = loops[index].noise(places.noise[index])
+                sigma = places.noise[index] if positions is None else \
+                    loops[index].noise_sigma(places.noise[index], positions[index])
+                noise[index] = loops[index].noise(sigma)
         u_measured = sensed.ravel()[places.where] * to_mm_per_cycle + noise
         u_measured[~places.alive] = np.nan
         return u_measured, u_true

@@ -27,6 +27,7 @@ from morphbench.params import (
     DEFAULT_STEPS,
     SENSOR_KINDS,
     EnvironmentParams,
+    FrictionFieldParams,
     GroundParams,
     LearnerParams,
     PhysicsParams,
@@ -36,6 +37,7 @@ from morphbench.params import (
 )
 from morphbench.physics import WorldInterface
 from morphbench.physics.bellows import link_spans
+from morphbench.physics.friction import FrictionField
 from morphbench.physics.camera import CameraGround
 from morphbench.readers import params_from_dict
 from morphbench.sensing import GroundTexture, IdealSensor, OpticalSensor, Sensor
@@ -165,6 +167,12 @@ def ground_poses(positions: np.ndarray, orientations: np.ndarray) -> tuple[np.nd
     return positions[:, :2], np.arctan2(axes[:, 1], axes[:, 0])
 
 
+@functools.lru_cache(maxsize=8)
+def _field_shape(params: FrictionFieldParams) -> FrictionField:
+    """The friction field's shape f, built once per field (its parameters are frozen)."""
+    return FrictionField(params)
+
+
 class RunLoop:
     """One run's world, sensors, controller and what events change; its methods are its part of each phase of a
     learning step: ``apply_events``, ``propose``, (the discarded cycles), ``start_measurement``, (the measured
@@ -204,6 +212,16 @@ class RunLoop:
         seed = self.config.seed
         return [np.random.default_rng(np.random.SeedSequence([seed, NOISE_STREAM, u]))
                 for u in range(self.config.shape.n_units)]
+
+    def noise_sigma(self, sigma: float, positions: np.ndarray) -> float | np.ndarray:
+        """The units' measurement noise (mm/cycle) where they stand, ``positions`` (n_units, 3) m in unit order:
+        ``sigma``, per unit times 1 + noise_ground f(x, y) on a ground the noise depends on
+        (EnvironmentParams.noise_ground; f the friction field's shape)."""
+        environment = self.config.environment
+        if not environment.noise_ground:
+            return sigma
+        field = _field_shape(environment.friction_field)
+        return sigma * (1.0 + environment.noise_ground * field(positions[:, 0], positions[:, 1]))
 
     def noise(self, sigma: float) -> np.ndarray:
         """Each unit's next measurement noise (mm/cycle, unit order), ``rng.normal(0.0, sigma)`` from its own stream:
