@@ -132,4 +132,8 @@ def test_the_wheel_works_outside_the_checkout(tmp_path: Path):
     shipped = subprocess.run([venv / "bin" / "python", "-c", listed], cwd=work, env=env, capture_output=True, text=True,
                              check=True).stdout.splitlines()
     assert shipped == [" ".join(sorted(p.name for p in d.glob("*.toml"))) for d in (EXAMPLES_DIR, BENCHMARKS_DIR)]
+    paper = ("import morphbench\nfrom morphbench.bench.suite import load_suite\n"  # its include found beside it
+             "suite = load_suite(morphbench.data_path('benchmarks') / 'paper.toml')\nprint(*suite.includes)")
+    assert subprocess.run([venv / "bin" / "python", "-c", paper], cwd=work, env=env, capture_output=True, text=True,
+                          check=True).stdout == "paper-hardware\n"
     print(f"wheel built, installed and checked in {time.perf_counter() - started:.0f} s")
