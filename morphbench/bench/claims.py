@@ -1306,17 +1306,10 @@ SUITE_CLAIMS: dict[str, tuple[Claim, ...]] = {HARDWARE_SUITE: HARDWARE_CLAIMS}
 def claims_for(suite: str | None, includes: tuple[str, ...] | list[str] = ()) -> tuple[Claim, ...]:
     """The claims a report on suite ``suite`` checks: the suite's own (SUITE_CLAIMS), else the paper's, CLAIMS; then,
     for each suite of ``includes`` (the names of those it includes) that has claims of its own, each of them in place
-    of the claim of the same id, the others after (the tuple itself when none is added)."""
-    claims = list(SUITE_CLAIMS.get(suite or "", CLAIMS))
-    changed = False
+    of the claim of the same id, the others after (the tuple itself when that changes none)."""
+    own = SUITE_CLAIMS.get(suite or "", CLAIMS)
+    merged = {claim.id: claim for claim in own}  # a replaced id keeps its place
     for name in includes:
-        place = {claim.id: k for k, claim in enumerate(claims)}
-        for claim in SUITE_CLAIMS.get(name, ()) if isinstance(name, str) else ():
-            if claim.id in place:
-                changed |= claims[place[claim.id]] is not claim
-                claims[place[claim.id]] = claim
-            else:
-                place[claim.id] = len(claims)
-                claims.append(claim)
-                changed = True
-    return tuple(claims) if changed else SUITE_CLAIMS.get(suite or "", CLAIMS)
+        merged.update((claim.id, claim) for claim in SUITE_CLAIMS.get(name, ()))
+    claims = tuple(merged.values())
+    return own if len(claims) == len(own) and all(a is b for a, b in zip(claims, own)) else claims

@@ -213,13 +213,11 @@ class RunLoop:
         return [np.random.default_rng(np.random.SeedSequence([seed, NOISE_STREAM, u]))
                 for u in range(self.config.shape.n_units)]
 
-    def noise_sigma(self, sigma: float, positions: np.ndarray) -> float | np.ndarray:
-        """The units' measurement noise (mm/cycle) where they stand, ``positions`` (n_units, 3) m in unit order:
-        ``sigma``, per unit times 1 + noise_ground f(x, y) on a ground the noise depends on
-        (EnvironmentParams.noise_ground; f the friction field's shape)."""
+    def noise_sigma(self, sigma: float, positions: np.ndarray) -> np.ndarray:
+        """The units' measurement noise (mm/cycle) where they stand, ``positions`` (n_units, 3) m in unit order, on a
+        ground the noise depends on: ``sigma`` times 1 + noise_ground f(x, y) (EnvironmentParams.noise_ground; f the
+        friction field's shape). Its callers ask only when noise_ground is set: the poses cost a step otherwise."""
         environment = self.config.environment
-        if not environment.noise_ground:
-            return sigma
         field = _field_shape(environment.friction_field)
         return sigma * (1.0 + environment.noise_ground * field(positions[:, 0], positions[:, 1]))
 
